@@ -1,0 +1,217 @@
+"""Structural stability without a physics engine (SPEC §6): loose parts and a drop test.
+
+A shape is stable when (a) it has no loose parts and (b) dropped onto the plane from 5% of
+its height it keeps its height within 2% after about 5 s of simulated time.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import trimesh
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+from scipy.spatial import cKDTree
+
+# ---------------------------------------------------------------------------------------------
+# Loose parts
+# ---------------------------------------------------------------------------------------------
+
+
+def _face_components(faces: np.ndarray, n_vertices: int) -> np.ndarray:
+    """Component label per face: faces that share a vertex belong together."""
+    r = np.concatenate([faces[:, 0], faces[:, 1]])
+    c = np.concatenate([faces[:, 1], faces[:, 2]])
+    graph = coo_matrix((np.ones(len(r), dtype=np.int8), (r, c)), shape=(n_vertices,) * 2)
+    return connected_components(graph, directed=False)[1][faces[:, 0]]
+
+
+def _point_triangle_distance(p: np.ndarray, tri: np.ndarray) -> np.ndarray:
+    """Exact distance from points p (m,3) to triangles tri (m,3,3), pairwise.
+
+    Inside the triangle's prism the distance is |n.(p-a)|/|n|; outside it is the smallest
+    distance to the three edge segments, d(p, ab) = |p - (a + clip(t,0,1)(b-a))|,
+    t = (p-a).(b-a)/|b-a|^2.
+    """
+    a, b, c = tri[:, 0], tri[:, 1], tri[:, 2]
+    ab, ac, ap = b - a, c - a, p - a
+    # barycentric coordinates of the projection of p onto the plane
+    d00, d01, d11 = (ab * ab).sum(1), (ab * ac).sum(1), (ac * ac).sum(1)
+    d20, d21 = (ap * ab).sum(1), (ap * ac).sum(1)
+    denom = d00 * d11 - d01 * d01
+    safe = np.where(np.abs(denom) > 1e-30, denom, 1.0)
+    v = (d11 * d20 - d01 * d21) / safe
+    w = (d00 * d21 - d01 * d20) / safe
+    inside = (v >= 0) & (w >= 0) & (v + w <= 1) & (np.abs(denom) > 1e-30)
+    normal = np.cross(ab, ac)
+    nlen = np.linalg.norm(normal, axis=1)
+    plane = np.abs((ap * normal).sum(1)) / np.where(nlen > 0, nlen, 1.0)
+    edge = np.full(len(p), np.inf)
+    for s, e in ((a, b), (b, c), (c, a)):
+        se = e - s
+        t = ((p - s) * se).sum(1) / np.maximum((se * se).sum(1), 1e-30)
+        q = s + np.clip(t, 0.0, 1.0)[:, None] * se
+        edge = np.minimum(edge, np.linalg.norm(p - q, axis=1))
+    return np.where(inside, plane, edge)
+
+
+def _segments_cross(s0: np.ndarray, s1: np.ndarray, tri: np.ndarray) -> np.ndarray:
+    """Pairwise: does segment s0->s1 pierce triangle tri? (Moller-Trumbore, t in [0,1])."""
+    eps = 1e-12
+    a = tri[:, 0]
+    e1, e2 = tri[:, 1] - a, tri[:, 2] - a
+    d = s1 - s0
+    h = np.cross(d, e2)
+    det = (e1 * h).sum(1)
+    ok = np.abs(det) > eps
+    inv = 1.0 / np.where(ok, det, 1.0)
+    sv = s0 - a
+    u = (sv * h).sum(1) * inv
+    q = np.cross(sv, e1)
+    v = (d * q).sum(1) * inv
+    t = (e2 * q).sum(1) * inv
+    return ok & (u >= 0) & (v >= 0) & (u + v <= 1) & (t >= 0) & (t <= 1)
+
+
+def _winding_number(point: np.ndarray, tri: np.ndarray) -> float:
+    """Generalised winding number of a closed triangle soup about `point`.
+
+    w = sum of solid angles / 4 pi, with the solid angle of one triangle (van Oosterom and
+    Strackee) Omega = 2 atan2(a.(b x c), |a||b||c| + (a.b)|c| + (b.c)|a| + (c.a)|b|), where
+    a, b, c are the corners relative to the point. |w| ~ 1 inside, ~ 0 outside.
+    """
+    r = tri - point
+    a, b, c = r[:, 0], r[:, 1], r[:, 2]
+    la, lb, lc = (np.linalg.norm(x, axis=1) for x in (a, b, c))
+    num = (a * np.cross(b, c)).sum(1)
+    den = la * lb * lc + (a * b).sum(1) * lc + (b * c).sum(1) * la + (c * a).sum(1) * lb
+    return float(2.0 * np.arctan2(num, den).sum() / (4.0 * np.pi))
+
+
+class _Part:
+    """One connected component: its triangles, bounding box, and lookup trees."""
+
+    def __init__(self, vertices: np.ndarray, faces: np.ndarray, closed: bool):
+        self.tri = vertices[faces]  # (F,3,3)
+        self.points = vertices[np.unique(faces)]  # own vertices only
+        self.lo, self.hi = self.points.min(0), self.points.max(0)
+        self.closed = closed
+        self.centroid = self.tri.mean(1)
+        # every point of a triangle lies within this radius of its centroid
+        self.radius = float(np.linalg.norm(self.tri - self.centroid[:, None], axis=2).max())
+        self.tree = cKDTree(self.centroid)
+        self.edges = vertices[_unique_edges(faces)[0]]  # (E,2,3)
+
+    def overlaps(self, other: "_Part", tol: float) -> bool:
+        return bool(np.all(self.lo <= other.hi + tol) and np.all(other.lo <= self.hi + tol))
+
+    def in_box(self, pts: np.ndarray, tol: float) -> np.ndarray:
+        return np.all((pts >= self.lo - tol) & (pts <= self.hi + tol), axis=1)
+
+    def near_pairs(self, pts: np.ndarray, reach: float) -> tuple[np.ndarray, np.ndarray]:
+        """(point index, triangle index) pairs whose centroid lies within radius + reach."""
+        lists = self.tree.query_ball_point(pts, self.radius + reach)
+        counts = np.fromiter((len(x) for x in lists), dtype=np.int64, count=len(lists))
+        if counts.sum() == 0:
+            return np.empty(0, np.int64), np.empty(0, np.int64)
+        return np.repeat(np.arange(len(pts)), counts), np.concatenate(lists).astype(np.int64)
+
+
+def _touches_one_way(p: _Part, q: _Part, tol: float) -> bool:
+    """Whether some vertex of p lies within tol of q's surface or inside closed q, or an
+    edge of p pierces a triangle of q."""
+    pts = p.points[q.in_box(p.points, tol)]
+    if len(pts):
+        if q.closed and abs(_winding_number(pts[0], q.tri)) > 0.5:
+            return True
+        i, t = q.near_pairs(pts, tol)
+        if len(i) and (_point_triangle_distance(pts[i], q.tri[t]) <= tol).any():
+            return True
+    mid = p.edges.mean(1)
+    keep = q.in_box(mid, tol)
+    if not keep.any():
+        return False
+    edges = p.edges[keep]
+    half = float(np.linalg.norm(edges[:, 1] - edges[:, 0], axis=1).max()) / 2
+    i, t = q.near_pairs(edges.mean(1), half)
+    return bool(len(i) and _segments_cross(edges[i, 0], edges[i, 1], q.tri[t]).any())
+
+
+def _touches(p: _Part, q: _Part, tol: float) -> bool:
+    return p.overlaps(q, tol) and (_touches_one_way(p, q, tol) or _touches_one_way(q, p, tol))
+
+
+def _unique_edges(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Undirected edges (E,2) of a face array and how many faces use each."""
+    edges = np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+    base = int(edges.max()) + 1
+    keys, counts = np.unique(edges[:, 0] * base + edges[:, 1], return_counts=True)
+    return np.stack([keys // base, keys % base], axis=1), counts
+
+
+def _closed(faces: np.ndarray) -> bool:
+    """Every undirected edge is shared by exactly two faces (after vertex merging)."""
+    counts = _unique_edges(faces)[1]
+    return bool(len(counts) and np.all(counts == 2))
+
+
+def split_parts(mesh: trimesh.Trimesh, tol: float = 1e-3) -> list[np.ndarray]:
+    """Face indices of each connected component; vertices closer than tol * diagonal merge."""
+    vertices = np.asarray(mesh.vertices, dtype=np.float64)
+    faces = np.asarray(mesh.faces, dtype=np.int64)
+    diag = float(np.linalg.norm(vertices.max(0) - vertices.min(0)))
+    label = _face_components(_merged_ids(vertices, tol * diag)[faces], len(vertices))
+    order = np.argsort(label, kind="stable")
+    cuts = np.flatnonzero(np.diff(label[order])) + 1
+    return np.split(order, cuts)
+
+
+def loose_parts(mesh: trimesh.Trimesh, tol: float = 1e-3) -> int:
+    """Number of connected components that do not belong to the largest touching group.
+
+    `tol` is relative to the bounding-box diagonal d; the absolute tolerance is tol * d.
+    Components are face-connected groups after merging vertices closer than tol * d. Two
+    components touch when a vertex of one lies within tol * d of the other's surface, or
+    inside it (winding number > 1/2, where the other is closed), or an edge of one pierces
+    a triangle of the other. Groups are the connected components of the touching graph;
+    the answer is (number of components) - (components in the largest group), so 0 means
+    every part holds on to the rest.
+    """
+    vertices = np.asarray(mesh.vertices, dtype=np.float64)
+    faces = np.asarray(mesh.faces, dtype=np.int64)
+    if len(faces) == 0:
+        return 0
+    diag = float(np.linalg.norm(vertices.max(0) - vertices.min(0)))
+    eps = tol * diag
+    canon = _merged_ids(vertices, eps)  # coincident duplicates count as shared vertices
+    flabel = _face_components(canon[faces], len(vertices))
+    order = np.argsort(flabel, kind="stable")
+    split = np.split(order, np.flatnonzero(np.diff(flabel[order])) + 1)
+    if len(split) == 1:
+        return 0
+    parts = [_Part(vertices, faces[f], _closed(canon[faces[f]])) for f in split]
+    n = len(parts)
+    rows, cols = [], []
+    for i in range(n):
+        for j in range(i + 1, n):
+            if _touches(parts[i], parts[j], eps):
+                rows.append(i)
+                cols.append(j)
+    graph = coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(n, n))
+    _, label = connected_components(graph, directed=False)
+    return int(n - np.bincount(label).max())
+
+
+def _merged_ids(vertices: np.ndarray, eps: float) -> np.ndarray:
+    """Map each vertex to the smallest index of the vertices within eps of it (welding)."""
+    ids = np.arange(len(vertices))
+    if eps <= 0:
+        return ids
+    pairs = cKDTree(vertices).query_pairs(eps, output_type="ndarray")
+    if len(pairs):
+        n = len(vertices)
+        graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
+        _, lab = connected_components(graph, directed=False)
+        first = np.full(lab.max() + 1, n)
+        np.minimum.at(first, lab, ids)
+        ids = first[lab]
+    return ids
