@@ -17,14 +17,6 @@ from scipy.spatial import cKDTree
 # ---------------------------------------------------------------------------------------------
 
 
-def _face_components(faces: np.ndarray, n_vertices: int) -> np.ndarray:
-    """Component label per face: faces that share a vertex belong together."""
-    r = np.concatenate([faces[:, 0], faces[:, 1]])
-    c = np.concatenate([faces[:, 1], faces[:, 2]])
-    graph = coo_matrix((np.ones(len(r), dtype=np.int8), (r, c)), shape=(n_vertices,) * 2)
-    return connected_components(graph, directed=False)[1][faces[:, 0]]
-
-
 def _point_triangle_distance(p: np.ndarray, tri: np.ndarray) -> np.ndarray:
     """Exact distance from points p (m,3) to triangles tri (m,3,3), pairwise.
 
@@ -88,18 +80,21 @@ def _winding_number(point: np.ndarray, tri: np.ndarray) -> float:
 
 
 class _Part:
-    """One connected component: its triangles, bounding box, and lookup trees."""
+    """One connected component: triangles, edges, bounding box; the KD-tree is built lazily."""
 
-    def __init__(self, vertices: np.ndarray, faces: np.ndarray, closed: bool):
+    def __init__(self, vertices: np.ndarray, faces: np.ndarray, edges: np.ndarray, closed: bool):
         self.tri = vertices[faces]  # (F,3,3)
+        self.edges = vertices[edges]  # (E,2,3)
         self.points = vertices[np.unique(faces)]  # own vertices only
         self.lo, self.hi = self.points.min(0), self.points.max(0)
         self.closed = closed
+        self._tree = None
+
+    def _build(self) -> None:
         self.centroid = self.tri.mean(1)
         # every point of a triangle lies within this radius of its centroid
-        self.radius = float(np.linalg.norm(self.tri - self.centroid[:, None], axis=2).max())
-        self.tree = cKDTree(self.centroid)
-        self.edges = vertices[_unique_edges(faces)[0]]  # (E,2,3)
+        self.radius = float(np.sqrt(((self.tri - self.centroid[:, None]) ** 2).sum(2).max()))
+        self._tree = cKDTree(self.centroid)
 
     def overlaps(self, other: "_Part", tol: float) -> bool:
         return bool(np.all(self.lo <= other.hi + tol) and np.all(other.lo <= self.hi + tol))
@@ -109,7 +104,9 @@ class _Part:
 
     def near_pairs(self, pts: np.ndarray, reach: float) -> tuple[np.ndarray, np.ndarray]:
         """(point index, triangle index) pairs whose centroid lies within radius + reach."""
-        lists = self.tree.query_ball_point(pts, self.radius + reach)
+        if self._tree is None:
+            self._build()
+        lists = self._tree.query_ball_point(pts, self.radius + reach)
         counts = np.fromiter((len(x) for x in lists), dtype=np.int64, count=len(lists))
         if counts.sum() == 0:
             return np.empty(0, np.int64), np.empty(0, np.int64)
@@ -131,8 +128,8 @@ def _touches_one_way(p: _Part, q: _Part, tol: float) -> bool:
     if not keep.any():
         return False
     edges = p.edges[keep]
-    half = float(np.linalg.norm(edges[:, 1] - edges[:, 0], axis=1).max()) / 2
-    i, t = q.near_pairs(edges.mean(1), half)
+    half = float(np.sqrt(((edges[:, 1] - edges[:, 0]) ** 2).sum(1).max())) / 2
+    i, t = q.near_pairs(mid[keep], half)
     return bool(len(i) and _segments_cross(edges[i, 0], edges[i, 1], q.tri[t]).any())
 
 
@@ -146,59 +143,6 @@ def _unique_edges(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     base = int(edges.max()) + 1
     keys, counts = np.unique(edges[:, 0] * base + edges[:, 1], return_counts=True)
     return np.stack([keys // base, keys % base], axis=1), counts
-
-
-def _closed(faces: np.ndarray) -> bool:
-    """Every undirected edge is shared by exactly two faces (after vertex merging)."""
-    counts = _unique_edges(faces)[1]
-    return bool(len(counts) and np.all(counts == 2))
-
-
-def split_parts(mesh: trimesh.Trimesh, tol: float = 1e-3) -> list[np.ndarray]:
-    """Face indices of each connected component; vertices closer than tol * diagonal merge."""
-    vertices = np.asarray(mesh.vertices, dtype=np.float64)
-    faces = np.asarray(mesh.faces, dtype=np.int64)
-    diag = float(np.linalg.norm(vertices.max(0) - vertices.min(0)))
-    label = _face_components(_merged_ids(vertices, tol * diag)[faces], len(vertices))
-    order = np.argsort(label, kind="stable")
-    cuts = np.flatnonzero(np.diff(label[order])) + 1
-    return np.split(order, cuts)
-
-
-def loose_parts(mesh: trimesh.Trimesh, tol: float = 1e-3) -> int:
-    """Number of connected components that do not belong to the largest touching group.
-
-    `tol` is relative to the bounding-box diagonal d; the absolute tolerance is tol * d.
-    Components are face-connected groups after merging vertices closer than tol * d. Two
-    components touch when a vertex of one lies within tol * d of the other's surface, or
-    inside it (winding number > 1/2, where the other is closed), or an edge of one pierces
-    a triangle of the other. Groups are the connected components of the touching graph;
-    the answer is (number of components) - (components in the largest group), so 0 means
-    every part holds on to the rest.
-    """
-    vertices = np.asarray(mesh.vertices, dtype=np.float64)
-    faces = np.asarray(mesh.faces, dtype=np.int64)
-    if len(faces) == 0:
-        return 0
-    diag = float(np.linalg.norm(vertices.max(0) - vertices.min(0)))
-    eps = tol * diag
-    canon = _merged_ids(vertices, eps)  # coincident duplicates count as shared vertices
-    flabel = _face_components(canon[faces], len(vertices))
-    order = np.argsort(flabel, kind="stable")
-    split = np.split(order, np.flatnonzero(np.diff(flabel[order])) + 1)
-    if len(split) == 1:
-        return 0
-    parts = [_Part(vertices, faces[f], _closed(canon[faces[f]])) for f in split]
-    n = len(parts)
-    rows, cols = [], []
-    for i in range(n):
-        for j in range(i + 1, n):
-            if _touches(parts[i], parts[j], eps):
-                rows.append(i)
-                cols.append(j)
-    graph = coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(n, n))
-    _, label = connected_components(graph, directed=False)
-    return int(n - np.bincount(label).max())
 
 
 def _merged_ids(vertices: np.ndarray, eps: float) -> np.ndarray:
@@ -215,3 +159,55 @@ def _merged_ids(vertices: np.ndarray, eps: float) -> np.ndarray:
         np.minimum.at(first, lab, ids)
         ids = first[lab]
     return ids
+
+
+def _groups(labels: np.ndarray) -> list[np.ndarray]:
+    """Indices of each distinct label, in label order."""
+    order = np.argsort(labels, kind="stable")
+    return np.split(order, np.flatnonzero(np.diff(labels[order])) + 1)
+
+
+def _components(mesh: trimesh.Trimesh, tol: float) -> tuple[list[_Part], float]:
+    """Split into welded, face-connected components; returns them and the absolute tol."""
+    vertices = np.asarray(mesh.vertices, dtype=np.float64)
+    faces = np.asarray(mesh.faces, dtype=np.int64)
+    eps = tol * float(np.linalg.norm(vertices.max(0) - vertices.min(0)))
+    welded = _merged_ids(vertices, eps)[faces]  # coincident duplicates count as shared
+    n = len(vertices)
+    r = np.concatenate([welded[:, 0], welded[:, 1]])
+    c = np.concatenate([welded[:, 1], welded[:, 2]])
+    graph = coo_matrix((np.ones(len(r), dtype=np.int8), (r, c)), shape=(n, n))
+    vlabel = connected_components(graph, directed=False)[1]
+    edges, counts = _unique_edges(welded)
+    elabel = vlabel[edges[:, 0]]
+    # a component is closed when each of its edges joins exactly two faces
+    open_edges = np.bincount(elabel, weights=counts != 2, minlength=n)
+    parts = []
+    for f, e in zip(_groups(vlabel[welded[:, 0]]), _groups(elabel)):
+        label = vlabel[welded[f[0], 0]]
+        parts.append(_Part(vertices, welded[f], edges[e], open_edges[label] == 0))
+    return parts, eps
+
+
+def loose_parts(mesh: trimesh.Trimesh, tol: float = 1e-3) -> int:
+    """Number of connected components that do not belong to the largest touching group.
+
+    `tol` is relative to the bounding-box diagonal d; the absolute tolerance is tol * d.
+    Components are face-connected groups after welding vertices closer than tol * d. Two
+    components touch when a vertex of one lies within tol * d of the other's surface, or
+    inside it (winding number > 1/2, where the other is closed), or an edge of one pierces
+    a triangle of the other. Groups are the connected components of the touching graph;
+    the answer is (number of components) - (components in the largest group), so 0 means
+    every part holds on to the rest. Pairs whose boxes (grown by tol * d) miss are skipped.
+    """
+    if len(mesh.faces) == 0:
+        return 0
+    parts, eps = _components(mesh, tol)
+    n = len(parts)
+    if n == 1:
+        return 0
+    pairs = [(i, j) for i in range(n) for j in range(i + 1, n) if _touches(parts[i], parts[j], eps)]
+    rows, cols = (list(x) for x in zip(*pairs)) if pairs else ([], [])
+    graph = coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(n, n))
+    _, label = connected_components(graph, directed=False)
+    return int(n - np.bincount(label).max())

@@ -1,0 +1,246 @@
+"""`geocode <command> ...`: the product's command line, and each workflow rule's entry point.
+
+Pipeline steps take Hydra overrides (`key=value`) after their options, so that
+`geocode train profile=smoke train.max_epochs=2` and the Snakefile compose the same config.
+A user's mistake ends in one line on stderr and exit code 2, never a traceback
+(set GEOCODE_DEBUG=1 to see one).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import os
+import sys
+from pathlib import Path
+
+USER_ERRORS = (ValueError, FileNotFoundError, KeyError)
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = parser().parse_args(argv)
+    logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s: %(message)s",
+                        datefmt="%H:%M:%S", stream=sys.stderr)
+    try:
+        result = args.run(args)
+    except USER_ERRORS as exc:
+        if os.environ.get("GEOCODE_DEBUG"):
+            raise
+        message = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc
+        print(f"geocode: {message}", file=sys.stderr)
+        return 2
+    if result is not None:
+        print(json.dumps(result) if getattr(args, "json", False) else format_result(result))
+    return 0
+
+
+def format_result(result) -> str:
+    if isinstance(result, dict):
+        return "\n".join(f"{k}: {v}" for k, v in result.items())
+    return str(result)
+
+
+def parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="geocode", description=__doc__.splitlines()[0])
+    sub = p.add_subparsers(required=True, metavar="command")
+
+    c = sub.add_parser("programs", help="list the programs with their parameter counts")
+    c.set_defaults(run=cmd_programs)
+
+    program = sub.add_parser("program", help="show or build one program").add_subparsers(required=True, metavar="action")
+    c = program.add_parser("show", help="parameters, ranges, classes and visibility rules")
+    c.add_argument("domain")
+    c.add_argument("--json", action="store_true")
+    c.set_defaults(run=cmd_program_show)
+    c = program.add_parser("build", help="write the program as a .blend (and its manifest)")
+    c.add_argument("domain")
+    c.add_argument("-o", "--output", required=True, type=Path, help="the .blend to write")
+    c.add_argument("--manifest", type=Path, help="also write the parameter manifest (JSON)")
+    c.set_defaults(run=cmd_program_build)
+
+    c = sub.add_parser("shape", help="evaluate a program at given values and write an OBJ")
+    c.add_argument("domain")
+    c.add_argument("values", nargs="*", metavar="name=value")
+    c.add_argument("-o", "--output", required=True, type=Path)
+    c.add_argument("--png", type=Path, help="also render a picture of it")
+    c.set_defaults(run=cmd_shape)
+
+    c = sub.add_parser("gallery", help="render 16 random shapes into one PNG")
+    c.add_argument("domain")
+    c.add_argument("-o", "--output", required=True, type=Path)
+    c.add_argument("--n", type=int, default=16)
+    c.add_argument("--seed", type=int, default=0)
+    c.set_defaults(run=cmd_gallery)
+
+    c = sub.add_parser("bench", help="measure a stage's throughput")
+    c.add_argument("stage", choices=["program", "dataset", "train", "eval"])
+    c.add_argument("domain", nargs="?", default="vase")
+    c.add_argument("--n", type=int, default=200)
+    c.add_argument("--json", action="store_true")
+    c.set_defaults(run=cmd_bench)
+
+    step = "pipeline step; takes Hydra overrides key=value"
+    c = sub.add_parser("sample", help=f"sample the recipes of every split ({step})")
+    c.set_defaults(run=cmd_sample)
+    for name, fn in (("export", cmd_export), ("sketch", cmd_sketch), ("points", cmd_points)):
+        c = sub.add_parser(name, help=f"one shard of the {name} stage ({step})")
+        c.add_argument("--split", required=True)
+        c.add_argument("--shard", required=True, type=int)
+        c.set_defaults(run=fn)
+    c = sub.add_parser("train", help=f"train a model ({step})")
+    c.add_argument("--out", type=Path, help="run folder (default: <paths.runs>/<domain>/<variant>)")
+    c.set_defaults(run=cmd_train)
+    c = sub.add_parser("config", help="print the composed config for these overrides")
+    c.set_defaults(run=cmd_config)
+
+    for action in sub.choices.values():
+        if action.get_default("run") in STEPS:
+            action.add_argument("overrides", nargs="*", metavar="key=value")
+    return p
+
+
+# -- programs ---------------------------------------------------------------------------------
+
+def cmd_programs(args):
+    from geocode.program import Program, registry
+
+    return "\n".join(f"{d}: {len(Program.load(d).parameters)} parameters" for d in registry())
+
+
+def cmd_program_show(args):
+    from geocode.program import Program
+    from geocode.recipe import Recipe
+
+    program = Program.load(args.domain)
+    recipe = Recipe.load(program.recipe_path, program.parameters, program.visibility())
+    shown = {"domain": args.domain, "parameters": recipe.describe()}
+    if args.json:
+        return shown
+    return "\n".join(
+        f"{p['name']:<32} {p['kind']:<5} [{p['min']:g}, {p['max']:g}] default {p['default']:g}"
+        f" classes {p['classes']}" + (f"  visible if {p['visible_if']}" if p["visible_if"] else "")
+        for p in shown["parameters"])
+
+
+def cmd_program_build(args):
+    from geocode.meshio import write_text
+    from geocode.program import Program
+
+    program = Program.load(args.domain)
+    program.save_blend(args.output)
+    if args.manifest:
+        write_text(args.manifest, json.dumps(program.manifest(), indent=1))
+    return f"wrote {args.output}"
+
+
+def cmd_shape(args):
+    from geocode.meshio import write_obj
+    from geocode.program import Program
+
+    program = Program.load(args.domain)
+    mesh = program.evaluate(parse_values(args.values))
+    write_obj(args.output, mesh)
+    if args.png:
+        from geocode.blender.gallery import render_mesh_png
+
+        render_mesh_png(mesh, args.png)
+    return f"wrote {args.output} ({len(mesh.faces)} faces)"
+
+
+def parse_values(tokens: list[str]) -> dict[str, float]:
+    values = {}
+    for token in tokens:
+        name, sep, text = token.partition("=")
+        try:
+            values[name] = float({"true": 1, "false": 0}.get(text.lower(), text))
+        except ValueError:
+            sep = ""
+        if not sep or not name:
+            raise ValueError(f"{token!r}: write a parameter value as name=number, e.g. body_height=1.2")
+    return values
+
+
+def cmd_gallery(args):
+    from geocode.blender.gallery import render_gallery
+
+    render_gallery(args.domain, args.output, n=args.n, seed=args.seed)
+    return f"wrote {args.output}"
+
+
+def cmd_bench(args):
+    if args.stage == "program":
+        from geocode.program import bench
+
+        return bench(args.domain, n=args.n)
+    if args.stage == "dataset":
+        from geocode.blender.bench import bench_dataset
+
+        return bench_dataset(args.domain)
+    if args.stage == "train":
+        from geocode.train import bench_train
+
+        return bench_train()
+    from geocode.evaluate import bench_eval
+
+    return bench_eval(args.domain)
+
+
+# -- pipeline steps -------------------------------------------------------------------------
+
+def step_config(args):
+    from geocode.config import compose
+
+    return compose(args.overrides)
+
+
+def cmd_config(args):
+    from omegaconf import OmegaConf
+
+    return OmegaConf.to_yaml(step_config(args), resolve=True)
+
+
+def cmd_sample(args):
+    from geocode.dataset import sample_step
+
+    return sample_step(step_config(args))
+
+
+def cmd_export(args):
+    from geocode.blender.export import export_shard
+    from geocode.config import data_dir
+
+    cfg = step_config(args)
+    export_shard(data_dir(cfg, cfg.domain.name, args.split), args.shard, cfg.domain.name)
+
+
+def cmd_sketch(args):
+    from geocode.blender.sketch import sketch_shard
+    from geocode.config import data_dir
+
+    cfg = step_config(args)
+    s = cfg.data.sketch
+    sketch_shard(data_dir(cfg, cfg.domain.name, args.split), args.shard, cameras=s.cameras,
+                 size=s.size, elevation=s.elevation, seed=cfg.seed, jitter=s.jitter)
+
+
+def cmd_points(args):
+    from geocode.config import data_dir
+    from geocode.points import points_shard
+
+    cfg = step_config(args)
+    points_shard(data_dir(cfg, cfg.domain.name, args.split), args.shard, cfg.data.points, cfg.seed)
+
+
+def cmd_train(args):
+    from geocode.train import train
+
+    cfg = step_config(args)
+    return train(cfg, out_dir=args.out)
+
+
+STEPS = {cmd_sample, cmd_export, cmd_sketch, cmd_points, cmd_train, cmd_config}
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,58 @@
+# Config and helpers shared by every rule. Snakemake owns paths; Hydra owns everything else:
+# each --config key=value is handed to every step as the same Hydra override.
+import os
+import shlex
+import sys
+from pathlib import Path
+
+from snakemake.exceptions import WorkflowError
+
+from geocode.config import ConfigError, compose, config_hash, domains
+
+# Rules call the `geocode` command of the environment that runs Snakemake.
+os.environ["PATH"] = f"{Path(sys.executable).parent}{os.pathsep}{os.environ.get('PATH', '')}"
+
+
+def as_override(key, value):
+    if isinstance(value, bool):
+        value = str(value).lower()
+    elif isinstance(value, (list, tuple)):
+        value = "[" + ",".join(str(v) for v in value) + "]"
+    elif value is None:
+        value = "null"
+    return f"{key}={value}"
+
+
+OVERRIDES = [as_override(k, v) for k, v in {"profile": "mini", **config}.items()]
+try:
+    CFG = compose(OVERRIDES)
+except ConfigError as exc:
+    raise WorkflowError(f"--config: {exc}") from None
+
+PROFILE = CFG.profile_name
+CONFIG_HASH = config_hash(CFG)
+DOMAINS = domains(CFG)
+SPLITS = ["train", "val", "test"]
+SHARDS = list(range(CFG.data.shards))
+DATA = CFG.paths.data
+RUNS = CFG.paths.runs
+BUILD = CFG.paths.build
+LOGS = f"logs/{PROFILE}"
+
+wildcard_constraints:
+    domain="|".join(DOMAINS) or "none",
+    split="|".join(SPLITS),
+    shard=r"\d+",
+
+
+def step_args(domain):
+    """The Hydra overrides every step of this domain gets, shell-quoted."""
+    return " ".join(shlex.quote(o) for o in [*OVERRIDES, f"domain={domain}"])
+
+
+def manifest(domain):
+    return f"{BUILD}/programs/{domain}.manifest.json"
+
+
+def done_files(stage, domain, splits=SPLITS):
+    return [f"{DATA}/{domain}/{split}/done/{stage}-{shard}.txt" for split in splits for shard in SHARDS]

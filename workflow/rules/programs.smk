@@ -1,0 +1,17 @@
+# Each program's graph as a .blend (open it in Blender's node editor) and its manifest.
+
+
+rule program:
+    input:
+        program="programs/{domain}.py",
+        recipe="programs/{domain}.yaml",
+    output:
+        blend=f"{BUILD}/programs/{{domain}}.blend",
+        manifest=f"{BUILD}/programs/{{domain}}.manifest.json",
+    log:
+        f"{LOGS}/program/{{domain}}.log",
+    threads: 1
+    resources:
+        mem_mb=2000,
+    shell:
+        "geocode program build {wildcards.domain} -o {output.blend} --manifest {output.manifest} > {log} 2>&1"
