@@ -124,6 +124,7 @@ class SketchRenderer:
         r.use_freestyle = True
         r.line_thickness_mode, r.line_thickness = "ABSOLUTE", line_thickness
         r.film_transparent = False
+        r.dither_intensity = 0.0            # dither noise would make white 254 and bytes random
         for name in dir(r):                 # no date/time/render-time text: identical bytes
             if name.startswith("use_stamp"):
                 setattr(r, name, False)
@@ -167,13 +168,8 @@ class SketchRenderer:
         lineset.linestyle = style
 
     def _setup_world(self) -> None:
-        world = self.bpy.data.worlds.new("geocode_sketch_white")
-        world.use_nodes = True
-        bg = world.node_tree.nodes.get("Background")
-        if bg is None:
-            bg = world.node_tree.nodes.new("ShaderNodeBackground")
-            out = world.node_tree.nodes.new("ShaderNodeOutputWorld")
-            world.node_tree.links.new(bg.outputs[0], out.inputs[0])
+        world = self.bpy.data.worlds.new("geocode_sketch_white")   # 5.0: comes with nodes
+        bg = next(n for n in world.node_tree.nodes if n.bl_idname == "ShaderNodeBackground")
         bg.inputs["Color"].default_value = (1.0, 1.0, 1.0, 1.0)
         bg.inputs["Strength"].default_value = 1.0
         self.scene.world = world
