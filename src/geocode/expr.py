@@ -429,7 +429,7 @@ class _Converter:
     def _Compare(self, node):
         operands = [self.convert(node.left)] + [self.convert(c) for c in node.comparators]
         parts = []
-        for op, left, right in zip(node.ops, operands, operands[1:], strict=True):
+        for op, left, right in zip(node.ops, operands[:-1], operands[1:], strict=True):
             symbol = _AST_COMPARE.get(type(op))
             if symbol is None:
                 raise ExprError(f"comparison {type(op).__name__} not allowed; use == != < <= > >=")
