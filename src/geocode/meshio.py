@@ -1,4 +1,4 @@
-"""Mesh files: atomic OBJ writing, OBJ reading, unit-sphere normalisation (no bpy)."""
+"""Files: atomic writes, OBJ meshes, unit-sphere normalisation, parquet tables (no bpy)."""
 
 from __future__ import annotations
 
@@ -9,6 +9,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import trimesh
 
 
@@ -72,3 +73,8 @@ def normalise_unit_sphere(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
     out = trimesh.Trimesh(vertices / radius, mesh.faces, process=False)
     out.metadata.update(mesh.metadata)
     return out
+
+
+def write_parquet(path: str | os.PathLike, frame: pd.DataFrame) -> None:
+    with atomic_path(path) as tmp:
+        frame.to_parquet(tmp, index=False)

@@ -1,0 +1,176 @@
+"""Evaluation steps (no bpy): robustness inputs, prediction, metrics (SPEC §5-6).
+
+Conditions are the inputs a model is tested on: clean point clouds, sketches from each
+camera, noisy and sparse clouds, and point clouds and sketches of simplified test meshes.
+A simplified copy of the test split lives beside it as the split `test-s<factor>`, so the
+ordinary sketch and points stages make its inputs.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import logging
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from omegaconf import DictConfig
+
+from geocode.config import data_dir
+from geocode.meshio import normalise_unit_sphere, read_obj, write_obj, write_parquet, write_text
+
+log = logging.getLogger("geocode.evaluate")
+
+KEYS = ["condition", "modality", "source", "camera", "noise", "sparse", "id"]
+
+
+def simplified_split(factor: int) -> str:
+    return f"test-s{factor}"
+
+
+def conditions(cfg: DictConfig) -> list[dict]:
+    """Every test input of one domain, as records with the columns of KEYS (less id)."""
+    cams = list(cfg.data.sketch.cameras)
+    trained = [c.name for c in cams if c.train]
+
+    def cond(modality, source="test", camera="", noise=0.0, sparse=0):
+        parts = [modality, source if source != "test" else "", camera,
+                 f"noise{noise:g}" if noise else "", f"sparse{sparse}" if sparse else ""]
+        return dict(condition="-".join(p for p in parts if p), modality=modality, source=source,
+                    camera=camera, noise=float(noise), sparse=int(sparse))
+
+    out = [cond("pc")] + [cond("sketch", camera=c.name) for c in cams]
+    out += [cond("pc", noise=s) for s in cfg.eval.noise]
+    out += [cond("pc", sparse=n) for n in cfg.eval.sparse]
+    for f in cfg.eval.simplify:
+        out += [cond("pc", source=f"s{f}")] + [cond("sketch", source=f"s{f}", camera=c) for c in trained]
+    return out
+
+
+def test_ids(cfg: DictConfig, domain: str) -> list[str]:
+    ids = pd.read_parquet(data_dir(cfg, domain, "test") / "recipes.parquet")["id"].tolist()
+    keep = cfg.eval.max_test_shapes
+    return ids if keep is None else ids[:keep]
+
+
+def id_seed(seed: int, *keys) -> np.random.Generator:
+    """A generator fixed by (seed, keys): the same input every run, whatever the order."""
+    digest = hashlib.sha256(repr((seed, *keys)).encode()).digest()
+    return np.random.default_rng(int.from_bytes(digest[:8], "little"))
+
+
+# -- robustness inputs ------------------------------------------------------------------------
+
+def simplify_step(cfg: DictConfig, domain: str, factor: int) -> str:
+    """Quadric-decimate the evaluated test meshes to 1/factor of their faces, as split test-s<f>."""
+    from geocode.points import simplify
+
+    src = data_dir(cfg, domain, "test")
+    dst = data_dir(cfg, domain, simplified_split(factor))
+    recipes = pd.read_parquet(src / "recipes.parquet")
+    recipes = recipes[recipes["id"].isin(test_ids(cfg, domain))]
+    write_parquet(dst / "recipes.parquet", recipes)
+    faces_before = faces_after = 0
+    for shard, rows in recipes.groupby("shard"):
+        for shape_id in rows["id"]:
+            mesh = read_obj(src / "shapes" / f"{shape_id}.obj")
+            small = normalise_unit_sphere(simplify(mesh, 1.0 / factor))
+            write_obj(dst / "shapes" / f"{shape_id}.obj", small)
+            faces_before += len(mesh.faces)
+            faces_after += len(small.faces)
+        write_text(dst / "done" / f"export-{shard}.txt", "\n".join(rows["id"]) + "\n")
+    return f"{domain} 1/{factor}: {faces_before} -> {faces_after} faces over {len(recipes)} shapes"
+
+
+def point_input(cfg: DictConfig, domain: str, cond: dict, shape_id: str) -> np.ndarray:
+    """The evaluation cloud of one shape under one condition, float32 (N, 3)."""
+    from geocode.data import eval_cloud
+    from geocode.points import add_noise, load_clouds, sample_surface
+
+    rng = id_seed(cfg.seed, "eval", cond["condition"], shape_id)
+    if cond["sparse"]:
+        mesh = read_obj(data_dir(cfg, domain, "test") / "shapes" / f"{shape_id}.obj")
+        return sample_surface(mesh, cond["sparse"], rng)
+    split = "test" if cond["source"] == "test" else f"test-{cond['source']}"
+    clouds = load_clouds(data_dir(cfg, domain, split) / "points" / f"{shape_id}.npz")
+    cloud = eval_cloud(clouds, cfg.data.points.train_random, shape_id)
+    return add_noise(cloud, cond["noise"], rng) if cond["noise"] else cloud
+
+
+def sketch_path(cfg: DictConfig, domain: str, cond: dict, shape_id: str) -> Path:
+    split = "test" if cond["source"] == "test" else f"test-{cond['source']}"
+    return data_dir(cfg, domain, split) / "sketches" / f"{shape_id}_{cond['camera']}.png"
+
+
+# -- prediction ---------------------------------------------------------------------------------
+
+def predict_step(cfg: DictConfig, domain: str, checkpoint: Path, out: Path) -> str:
+    """Predict every condition's test inputs, denormalise, and write one parquet of values."""
+    from geocode.data import load_sketch
+    from geocode.dataset import load_recipe
+    from geocode.train import load_model, predict_classes
+
+    recipe = load_recipe(cfg, domain)
+    model = load_model(checkpoint)
+    ids = test_ids(cfg, domain)
+    frames = []
+    for cond in conditions(cfg):
+        start = time.perf_counter()
+        if cond["modality"] == "pc":
+            batch = np.stack([point_input(cfg, domain, cond, i) for i in ids])
+            classes = predict_classes(model, points=batch)
+        else:
+            batch = np.stack([load_sketch(sketch_path(cfg, domain, cond, i)) for i in ids])
+            classes = predict_classes(model, sketches=batch)
+        values = [recipe.values_from_classes(dict(zip(model.parameter_names, row, strict=True)))
+                  for row in classes.tolist()]
+        frame = pd.DataFrame(values)
+        frames.append(frame.assign(**cond, id=ids))
+        log.info("%s: %d shapes in %.1f s", cond["condition"], len(ids), time.perf_counter() - start)
+    frames.append(mean_shape(cfg, domain, recipe))
+    table = pd.concat(frames, ignore_index=True)
+    write_parquet(out, table[KEYS + [c for c in table.columns if c not in KEYS]])
+    return f"{domain}: {len(table)} predictions"
+
+
+def mean_shape(cfg: DictConfig, domain: str, recipe) -> pd.DataFrame:
+    """The baseline: every parameter at its most frequent class in the training split."""
+    train = pd.read_parquet(data_dir(cfg, domain, "train") / "recipes.parquet")
+    classes = recipe.class_matrix(train)                        # (n, P)
+    common = {p.name: int(np.bincount(classes[:, j]).argmax()) for j, p in enumerate(recipe.parameters)}
+    values = recipe.values_from_classes(common)
+    return pd.DataFrame([values]).assign(condition="baseline", modality="baseline", source="test",
+                                         camera="", noise=0.0, sparse=0, id="mean-shape")
+
+
+# -- metrics ----------------------------------------------------------------------------------
+
+def metrics_step(cfg: DictConfig, domain: str, variant: str, predictions: Path,
+                 rebuilt: Path, out: Path) -> str:
+    """Chamfer distance of every rebuilt prediction to its ground truth; the drop test on the
+    ground truth and on the clean predictions; one row per prediction (and per GT shape)."""
+    from geocode.metrics import chamfer_meshes
+    from geocode.stability import drop_test
+
+    table = pd.read_parquet(predictions)
+    gt_dir = data_dir(cfg, domain, "test") / "shapes"
+    cams = {c.name for c in cfg.data.sketch.cameras if c.train}
+    gt_meshes = {i: read_obj(gt_dir / f"{i}.obj") for i in test_ids(cfg, domain)}
+    rows = []
+    for rec in table[KEYS].to_dict("records"):
+        pred = read_obj(rebuilt / rec["condition"] / f"{rec['id']}.obj")
+        targets = gt_meshes.items() if rec["modality"] == "baseline" else [(rec["id"], gt_meshes[rec["id"]])]
+        clean = rec["source"] == "test" and not rec["noise"] and not rec["sparse"]
+        stable = np.nan
+        if clean and (rec["modality"] == "pc" or rec["camera"] in cams):
+            stable = float(drop_test(pred)["stable"])
+        for gt_id, gt in targets:
+            rng = id_seed(cfg.seed, "chamfer", rec["condition"], gt_id)
+            cd = chamfer_meshes(pred, gt, n=cfg.eval.chamfer_points, rng=rng)
+            rows.append({**rec, "id": gt_id, "chamfer": cd, "stable": stable})
+    rows += [dict(condition="gt", modality="gt", source="test", camera="", noise=0.0, sparse=0,
+                  id=i, chamfer=np.nan, stable=float(drop_test(m)["stable"])) for i, m in gt_meshes.items()]
+    frame = pd.DataFrame(rows).assign(domain=domain, variant=variant)
+    write_parquet(out, frame)
+    return f"{domain}/{variant}: {len(frame)} metric rows"
