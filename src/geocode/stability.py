@@ -64,37 +64,44 @@ def _segments_cross(s0: np.ndarray, s1: np.ndarray, tri: np.ndarray) -> np.ndarr
     return ok & (u >= 0) & (v >= 0) & (u + v <= 1) & (t >= 0) & (t <= 1)
 
 
-def _winding_number(point: np.ndarray, tri: np.ndarray) -> float:
-    """Generalised winding number of a closed triangle soup about `point`.
+def _winding_number(points: np.ndarray, tri: np.ndarray) -> np.ndarray:
+    """Generalised winding numbers (k,) of a closed triangle soup about points (k,3).
 
     w = sum of solid angles / 4 pi, with the solid angle of one triangle (van Oosterom and
     Strackee) Omega = 2 atan2(a.(b x c), |a||b||c| + (a.b)|c| + (b.c)|a| + (c.a)|b|), where
     a, b, c are the corners relative to the point. |w| ~ 1 inside, ~ 0 outside.
     """
-    r = tri - point
-    a, b, c = r[:, 0], r[:, 1], r[:, 2]
-    la, lb, lc = (np.linalg.norm(x, axis=1) for x in (a, b, c))
-    num = (a * np.cross(b, c)).sum(1)
-    den = la * lb * lc + (a * b).sum(1) * lc + (b * c).sum(1) * la + (c * a).sum(1) * lb
-    return float(2.0 * np.arctan2(num, den).sum() / (4.0 * np.pi))
+    # component-wise arithmetic: reductions over a length-3 axis are slow in numpy
+    r = np.moveaxis(tri, (1, 2), (0, 1))[None] - points[:, None, :, None]  # (k,3 corners,3,F)
+    a, b, c = r[:, 0], r[:, 1], r[:, 2]  # (k,3,F)
+
+    def dot(u, v):
+        return u[:, 0] * v[:, 0] + u[:, 1] * v[:, 1] + u[:, 2] * v[:, 2]
+
+    la, lb, lc = np.sqrt(dot(a, a)), np.sqrt(dot(b, b)), np.sqrt(dot(c, c))
+    num = (
+        a[:, 0] * (b[:, 1] * c[:, 2] - b[:, 2] * c[:, 1])
+        + a[:, 1] * (b[:, 2] * c[:, 0] - b[:, 0] * c[:, 2])
+        + a[:, 2] * (b[:, 0] * c[:, 1] - b[:, 1] * c[:, 0])
+    )
+    den = la * lb * lc + dot(a, b) * lc + dot(b, c) * la + dot(c, a) * lb
+    return np.arctan2(num, den).sum(-1) / (2.0 * np.pi)
 
 
 class _Part:
-    """One connected component: triangles, edges, bounding box; the KD-tree is built lazily."""
+    """One connected component: its triangles, edges and bounding box."""
 
     def __init__(self, vertices: np.ndarray, faces: np.ndarray, edges: np.ndarray, closed: bool):
         self.tri = vertices[faces]  # (F,3,3)
         self.edges = vertices[edges]  # (E,2,3)
-        self.points = vertices[np.unique(faces)]  # own vertices only
+        used = np.zeros(len(vertices), dtype=bool)
+        used[faces] = True
+        self.points = vertices[used]  # own vertices only
         self.lo, self.hi = self.points.min(0), self.points.max(0)
+        t0, t1, t2 = self.tri[:, 0], self.tri[:, 1], self.tri[:, 2]
+        self.tri_lo = np.minimum(np.minimum(t0, t1), t2)
+        self.tri_hi = np.maximum(np.maximum(t0, t1), t2)
         self.closed = closed
-        self._tree = None
-
-    def _build(self) -> None:
-        self.centroid = self.tri.mean(1)
-        # every point of a triangle lies within this radius of its centroid
-        self.radius = float(np.sqrt(((self.tri - self.centroid[:, None]) ** 2).sum(2).max()))
-        self._tree = cKDTree(self.centroid)
 
     def overlaps(self, other: "_Part", tol: float) -> bool:
         return bool(np.all(self.lo <= other.hi + tol) and np.all(other.lo <= self.hi + tol))
@@ -102,39 +109,82 @@ class _Part:
     def in_box(self, pts: np.ndarray, tol: float) -> np.ndarray:
         return np.all((pts >= self.lo - tol) & (pts <= self.hi + tol), axis=1)
 
-    def near_pairs(self, pts: np.ndarray, reach: float) -> tuple[np.ndarray, np.ndarray]:
-        """(point index, triangle index) pairs whose centroid lies within radius + reach."""
-        if self._tree is None:
-            self._build()
-        lists = self._tree.query_ball_point(pts, self.radius + reach)
-        counts = np.fromiter((len(x) for x in lists), dtype=np.int64, count=len(lists))
-        if counts.sum() == 0:
-            return np.empty(0, np.int64), np.empty(0, np.int64)
-        return np.repeat(np.arange(len(pts)), counts), np.concatenate(lists).astype(np.int64)
+    def tri_near(self, lo: np.ndarray, hi: np.ndarray, tol: float) -> np.ndarray:
+        """Triangles whose own box meets the box [lo, hi] grown by tol."""
+        return np.all((self.tri_lo <= hi + tol) & (self.tri_hi >= lo - tol), axis=1)
 
 
-def _touches_one_way(p: _Part, q: _Part, tol: float) -> bool:
-    """Whether some vertex of p lies within tol of q's surface or inside closed q, or an
-    edge of p pierces a triangle of q."""
-    pts = p.points[q.in_box(p.points, tol)]
-    if len(pts):
-        if q.closed and abs(_winding_number(pts[0], q.tri)) > 0.5:
-            return True
-        i, t = q.near_pairs(pts, tol)
-        if len(i) and (_point_triangle_distance(pts[i], q.tri[t]) <= tol).any():
-            return True
-    mid = p.edges.mean(1)
-    keep = q.in_box(mid, tol)
-    if not keep.any():
+def _pairs(pts: np.ndarray, tri: np.ndarray, reach: float) -> tuple[np.ndarray, np.ndarray]:
+    """(point, triangle) index pairs with the point within reach of the triangle's bounding
+    sphere about its centroid (radius r_t = farthest corner): |p - c_t| <= r_t + reach."""
+    centroid = tri.mean(1)
+    radius = np.sqrt(((tri - centroid[:, None]) ** 2).sum(2).max(1))
+    lists = cKDTree(pts).query_ball_point(centroid, radius + reach)
+    counts = np.fromiter((len(x) for x in lists), dtype=np.int64, count=len(lists))
+    if counts.sum() == 0:
+        return np.empty(0, np.int64), np.empty(0, np.int64)
+    return np.concatenate(lists).astype(np.int64), np.repeat(np.arange(len(tri)), counts)
+
+
+def _inside(p: _Part, q: _Part, tol: float) -> bool:
+    """Whether p's vertex nearest q's box centre lies inside closed q (|winding| > 1/2).
+    A part wholly inside another touches no surface, so it needs this test; one point
+    suffices there, and the deepest candidate also catches most partial insertions."""
+    if not q.closed:
         return False
-    edges = p.edges[keep]
+    pts = p.points[q.in_box(p.points, tol)]
+    if len(pts) == 0:
+        return False
+    centre = (q.lo + q.hi) / 2
+    x = pts[np.argmin(((pts - centre) ** 2).sum(1))]
+    return bool(abs(_winding_number(x[None], q.tri)[0]) > 0.5)
+
+
+def _near(p: _Part, q: _Part, tol: float) -> bool:
+    """Whether a vertex of p lies within tol of a triangle of q (exact point-triangle distance)."""
+    pts = p.points[q.in_box(p.points, tol)]
+    tri = q.tri[q.tri_near(p.lo, p.hi, tol)]
+    if len(pts) == 0 or len(tri) == 0:
+        return False
+    i, t = _pairs(pts, tri, tol)
+    return bool(len(i) and (_point_triangle_distance(pts[i], tri[t]) <= tol).any())
+
+
+def _split_segments(edges: np.ndarray, step: float) -> np.ndarray:
+    """Cut segments (E,2,3) into pieces no longer than step (their union is unchanged)."""
+    length = np.sqrt(((edges[:, 1] - edges[:, 0]) ** 2).sum(1))
+    pieces = np.maximum(1, np.ceil(length / step)).astype(np.int64)
+    if pieces.max() == 1:
+        return edges
+    owner = np.repeat(np.arange(len(edges)), pieces)
+    k = np.arange(len(owner)) - np.repeat(np.cumsum(pieces) - pieces, pieces)
+    t0 = (k / pieces[owner])[:, None]
+    t1 = ((k + 1) / pieces[owner])[:, None]
+    s, d = edges[owner, 0], edges[owner, 1] - edges[owner, 0]
+    return np.stack([s + t0 * d, s + t1 * d], axis=1)
+
+
+def _pierces(p: _Part, q: _Part, tol: float) -> bool:
+    """Whether an edge of p crosses a triangle of q (surfaces that intersect transversally
+    always have such an edge, even when no vertex is near the other surface). Long edges
+    are cut to about q's triangle size so that the candidate search stays local."""
+    tri = q.tri[q.tri_near(p.lo, p.hi, tol)]
+    edges = p.edges[q.in_box(p.edges.mean(1), tol)]
+    if len(edges) == 0 or len(tri) == 0:
+        return False
+    size = np.sqrt(((tri[:, 1] - tri[:, 0]) ** 2).sum(1))
+    edges = _split_segments(edges, max(float(np.median(size)), tol))
     half = float(np.sqrt(((edges[:, 1] - edges[:, 0]) ** 2).sum(1).max())) / 2
-    i, t = q.near_pairs(mid[keep], half)
-    return bool(len(i) and _segments_cross(edges[i, 0], edges[i, 1], q.tri[t]).any())
+    i, t = _pairs(edges.mean(1), tri, half)
+    return bool(len(i) and _segments_cross(edges[i, 0], edges[i, 1], tri[t]).any())
 
 
 def _touches(p: _Part, q: _Part, tol: float) -> bool:
-    return p.overlaps(q, tol) and (_touches_one_way(p, q, tol) or _touches_one_way(q, p, tol))
+    """Touching is symmetric; the cheap tests run first."""
+    if not p.overlaps(q, tol):
+        return False
+    tests = (_inside, _near, _pierces)
+    return any(test(a, b, tol) for test in tests for a, b in ((p, q), (q, p)))
 
 
 def _unique_edges(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -155,8 +205,8 @@ def _merged_ids(vertices: np.ndarray, eps: float) -> np.ndarray:
         n = len(vertices)
         graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
         _, lab = connected_components(graph, directed=False)
-        first = np.full(lab.max() + 1, n)
-        np.minimum.at(first, lab, ids)
+        first = np.empty(lab.max() + 1, dtype=np.int64)
+        first[lab[::-1]] = ids[::-1]  # the last write wins: the smallest index per cluster
         ids = first[lab]
     return ids
 
