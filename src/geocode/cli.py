@@ -91,6 +91,25 @@ def parser() -> argparse.ArgumentParser:
     c = sub.add_parser("train", help=f"train a model ({step})")
     c.add_argument("--out", type=Path, help="run folder (default: <paths.runs>/<domain>/<variant>)")
     c.set_defaults(run=cmd_train)
+    c = sub.add_parser("simplify", help=f"decimate the test meshes into split test-s<factor> ({step})")
+    c.add_argument("--factor", required=True, type=int)
+    c.set_defaults(run=cmd_simplify)
+    c = sub.add_parser("predict", help=f"predict every test condition with a checkpoint ({step})")
+    c.add_argument("--checkpoint", required=True, type=Path)
+    c.add_argument("-o", "--output", required=True, type=Path)
+    c.set_defaults(run=cmd_predict)
+    c = sub.add_parser("rebuild", help=f"rebuild one shard of predictions with the program ({step})")
+    c.add_argument("--predictions", required=True, type=Path)
+    c.add_argument("--shard", required=True, type=int)
+    c.set_defaults(run=cmd_rebuild)
+    c = sub.add_parser("metrics", help=f"Chamfer distances and drop tests of rebuilt predictions ({step})")
+    c.add_argument("--predictions", required=True, type=Path)
+    c.add_argument("-o", "--output", required=True, type=Path)
+    c.set_defaults(run=cmd_metrics)
+    c = sub.add_parser("tables", help=f"metrics files -> the paper's tables ({step})")
+    c.add_argument("--metrics", required=True, nargs="+", type=Path)
+    c.add_argument("-o", "--output", required=True, type=Path)
+    c.set_defaults(run=cmd_tables)
     c = sub.add_parser("config", help="print the composed config for these overrides")
     c.set_defaults(run=cmd_config)
 
@@ -239,7 +258,50 @@ def cmd_train(args):
     return train(cfg, out_dir=args.out)
 
 
-STEPS = {cmd_sample, cmd_export, cmd_sketch, cmd_points, cmd_train, cmd_config}
+def cmd_simplify(args):
+    from geocode.evaluate import simplify_step
+
+    cfg = step_config(args)
+    return simplify_step(cfg, cfg.domain.name, args.factor)
+
+
+def cmd_predict(args):
+    from geocode.evaluate import predict_step
+
+    cfg = step_config(args)
+    return predict_step(cfg, cfg.domain.name, args.checkpoint, args.output)
+
+
+def cmd_rebuild(args):
+    from geocode.evaluate import rebuild_step
+
+    cfg = step_config(args)
+    return rebuild_step(cfg, cfg.domain.name, args.predictions, args.shard)
+
+
+def cmd_metrics(args):
+    from geocode.evaluate import metrics_step
+
+    cfg = step_config(args)
+    return metrics_step(cfg, cfg.domain.name, args.predictions, args.output)
+
+
+def cmd_tables(args):
+    import pandas as pd
+
+    from geocode.config import config_hash
+    from geocode.tables import write_tables
+
+    cfg = step_config(args)
+    metrics = pd.concat([pd.read_parquet(p) for p in args.metrics], ignore_index=True)
+    header = f"profile {cfg.profile_name}, config {config_hash(cfg)}, {metrics.id.nunique()} test shapes"
+    cameras = [dict(c) for c in cfg.data.sketch.cameras]
+    names = write_tables(metrics, cameras, args.output, header)
+    return f"wrote {len(names)} tables to {args.output}: {', '.join(names)}"
+
+
+STEPS = {cmd_sample, cmd_export, cmd_sketch, cmd_points, cmd_train, cmd_config, cmd_simplify,
+         cmd_predict, cmd_rebuild, cmd_metrics, cmd_tables}
 
 
 if __name__ == "__main__":

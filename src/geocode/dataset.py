@@ -10,8 +10,8 @@ import pandas as pd
 from omegaconf import DictConfig
 
 from geocode.config import data_dir, repo_root
-from geocode.recipe import Recipe, load_manifest
 from geocode.meshio import write_parquet
+from geocode.recipe import Recipe, load_manifest
 from geocode.sampling import assign_shards, sample_dataset
 
 log = logging.getLogger("geocode.sample")

@@ -72,14 +72,15 @@ def simplify_step(cfg: DictConfig, domain: str, factor: int) -> str:
     recipes = recipes[recipes["id"].isin(test_ids(cfg, domain))]
     write_parquet(dst / "recipes.parquet", recipes)
     faces_before = faces_after = 0
-    for shard, rows in recipes.groupby("shard"):
+    for shard in range(cfg.data.shards):
+        rows = recipes[recipes["shard"] == shard]
         for shape_id in rows["id"]:
             mesh = read_obj(src / "shapes" / f"{shape_id}.obj")
             small = normalise_unit_sphere(simplify(mesh, 1.0 / factor))
             write_obj(dst / "shapes" / f"{shape_id}.obj", small)
             faces_before += len(mesh.faces)
             faces_after += len(small.faces)
-        write_text(dst / "done" / f"export-{shard}.txt", "\n".join(rows["id"]) + "\n")
+        write_text(dst / "done" / f"export-{shard}.txt", "".join(f"{i}\n" for i in rows["id"]))
     return f"{domain} 1/{factor}: {faces_before} -> {faces_after} faces over {len(recipes)} shapes"
 
 
@@ -144,16 +145,32 @@ def mean_shape(cfg: DictConfig, domain: str, recipe) -> pd.DataFrame:
                                          camera="", noise=0.0, sparse=0, id="mean-shape")
 
 
+# -- rebuilding ---------------------------------------------------------------------------------
+
+def rebuild_step(cfg: DictConfig, domain: str, predictions: Path, shard: int) -> str:
+    """Rebuild every n-th prediction with the program: <eval>/rebuilt/<condition>/<id>.obj."""
+    from geocode.blender.rebuild import rebuild
+
+    table = pd.read_parquet(predictions).iloc[shard::cfg.data.shards]
+    names = [c for c in table.columns if c not in KEYS]
+    out_dir = Path(predictions).parent / "rebuilt"
+    jobs = [(f"{r['condition']}/{r['id']}", {n: r[n] for n in names}) for r in table.to_dict("records")]
+    rebuild(domain, jobs, out_dir)
+    write_text(out_dir / f"done-{shard}.txt", "".join(f"{key}\n" for key, _ in jobs))
+    return f"{domain}: rebuilt {len(jobs)} shapes"
+
+
 # -- metrics ----------------------------------------------------------------------------------
 
-def metrics_step(cfg: DictConfig, domain: str, variant: str, predictions: Path,
-                 rebuilt: Path, out: Path) -> str:
+def metrics_step(cfg: DictConfig, domain: str, predictions: Path, out: Path) -> str:
     """Chamfer distance of every rebuilt prediction to its ground truth; the drop test on the
     ground truth and on the clean predictions; one row per prediction (and per GT shape)."""
     from geocode.metrics import chamfer_meshes
     from geocode.stability import drop_test
 
     table = pd.read_parquet(predictions)
+    rebuilt = Path(predictions).parent / "rebuilt"
+    variant = Path(predictions).parent.parent.name          # <runs>/<domain>/<variant>/eval/
     gt_dir = data_dir(cfg, domain, "test") / "shapes"
     cams = {c.name for c in cfg.data.sketch.cameras if c.train}
     gt_meshes = {i: read_obj(gt_dir / f"{i}.obj") for i in test_ids(cfg, domain)}

@@ -38,10 +38,15 @@ DATA = CFG.paths.data
 RUNS = CFG.paths.runs
 BUILD = CFG.paths.build
 LOGS = f"logs/{PROFILE}"
+VARIANTS = list(CFG.eval.variants)
+# A GPU per training job where the config asks for one (accelerator=auto declares none).
+GPUS = 1 if CFG.train.accelerator in ("gpu", "cuda") else 0
 
 wildcard_constraints:
     domain="|".join(DOMAINS) or "none",
-    split="|".join(SPLITS),
+    split=r"train|val|test|test-s\d+",
+    factor=r"\d+",
+    variant="|".join(VARIANTS),
     shard=r"\d+",
 
 
