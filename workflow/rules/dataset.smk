@@ -5,7 +5,7 @@
 rule sample:
     input:
         manifest=lambda w: manifest(w.domain),
-        recipe="programs/{domain}.yaml",
+        recipe=f"{PROGRAMS}/{{domain}}.yaml",
     output:
         expand(f"{DATA}/{{{{domain}}}}/{{split}}/recipes.parquet", split=SPLITS),
     log:

@@ -3,8 +3,8 @@
 
 rule program:
     input:
-        program="programs/{domain}.py",
-        recipe="programs/{domain}.yaml",
+        program=f"{PROGRAMS}/{{domain}}.py",
+        recipe=f"{PROGRAMS}/{{domain}}.yaml",
     output:
         blend=f"{BUILD}/programs/{{domain}}.blend",
         manifest=f"{BUILD}/programs/{{domain}}.manifest.json",
