@@ -1,0 +1,68 @@
+"""The command line: one clear line and exit code 2 for a user's mistake, never a traceback."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+from geocode.cli import main, parse_values
+
+
+def geocode(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "geocode.cli", *args], capture_output=True, text=True)
+
+
+def test_importing_the_package_and_cli_pulls_in_neither_blender_nor_torch():
+    code = "import sys, geocode, geocode.cli, geocode.config; print(sorted(m for m in ('bpy', 'torch') if m in sys.modules))"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "[]"
+
+
+def test_parse_values_reads_numbers_and_booleans():
+    assert parse_values(["a=1.5", "b=true", "c=false", "d=-2"]) == {"a": 1.5, "b": 1.0, "c": 0.0, "d": -2.0}
+    with pytest.raises(ValueError, match="name=number"):
+        parse_values(["a=tall"])
+    with pytest.raises(ValueError, match="name=number"):
+        parse_values(["a"])
+
+
+def test_config_prints_the_composed_profile(capsys):
+    assert main(["config", "profile=smoke", "train.max_epochs=3"]) == 0
+    out = capsys.readouterr().out
+    assert "profile_name: smoke" in out and "max_epochs: 3" in out
+
+
+@pytest.mark.parametrize("override, words", [
+    ("data.shards=0", "data.shards=0: give a whole number >= 1"),
+    ("profile=huge", "profile"),
+    ("data.nonsense=1", "nonsense"),
+])
+def test_bad_overrides_give_one_line(override, words):
+    result = geocode("config", override)
+    assert result.returncode == 2
+    assert words in result.stderr
+    assert "Traceback" not in result.stderr and len(result.stderr.strip().splitlines()) == 1
+
+
+def test_shape_rejects_unknown_names_and_out_of_range_values(tmp_path):
+    out = tmp_path / "v.obj"
+    result = geocode("shape", "vase", "no_such_parameter=1", "-o", str(out))
+    assert result.returncode == 2 and "no_such_parameter" in result.stderr
+    assert len(result.stderr.strip().splitlines()) == 1
+    show = json.loads(geocode("program", "show", "vase", "--json").stdout)
+    first = next(p for p in show["parameters"] if p["kind"] == "float")
+    result = geocode("shape", "vase", f"{first['name']}={first['max'] + 10}", "-o", str(out))
+    assert result.returncode == 2 and first["name"] in result.stderr and not out.exists()
+    result = geocode("shape", "vase", f"{first['name']}={first['max']}", "-o", str(out))
+    assert result.returncode == 0 and out.stat().st_size > 0
+
+
+def test_program_show_json_lists_every_parameter():
+    show = json.loads(geocode("program", "show", "vase", "--json").stdout)
+    assert show["domain"] == "vase" and len(show["parameters"]) >= 39
+    keys = {"name", "kind", "min", "max", "default", "classes", "visible_if"}
+    assert all(keys <= set(p) for p in show["parameters"])
+    assert sum(p["visible_if"] is not None for p in show["parameters"]) >= 5
