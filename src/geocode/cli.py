@@ -128,11 +128,13 @@ def cmd_programs(args):
 
 
 def cmd_program_show(args):
+    from geocode.config import repo_root
     from geocode.program import Program
     from geocode.recipe import Recipe
 
     program = Program.load(args.domain)
-    recipe = Recipe.load(program.recipe_path, program.parameters, program.visibility())
+    recipe_path = repo_root() / "programs" / f"{args.domain}.yaml"
+    recipe = Recipe.load(recipe_path, program.parameters, program.visibility())
     shown = {"domain": args.domain, "parameters": recipe.describe()}
     if args.json:
         return shown
