@@ -235,12 +235,15 @@ def read_ids(path: str | Path) -> list[str]:
     return [line.strip() for line in Path(path).read_text().splitlines() if line.strip()]
 
 
-def sketch_shard(split_dir: str | Path, shard: int, cameras: Sequence[Camera] = DEFAULT_CAMERAS,
-                 size: int = 224, seed: int = 0, jitter: float = 0.0) -> Path:
+def sketch_shard(split_dir: str | Path, shard: int, cameras: Sequence[Camera | Mapping] = DEFAULT_CAMERAS,
+                 size: int = 224, seed: int = 0, jitter: float = 0.0,
+                 elevation: float = DEFAULT_ELEVATION) -> Path:
     """Sketch every shape that `done/export-<shard>.txt` lists; skip finished views; write
-    `done/sketch-<shard>.txt` last. Returns the done file."""
+    `done/sketch-<shard>.txt` last. Cameras are `Camera`s or config items {name, azimuth,
+    elevation?}; `elevation` fills a missing one. Returns the done file."""
     split_dir = Path(split_dir)
-    cameras = [c if isinstance(c, Camera) else cameras_from_config([c])[0] for c in cameras]
+    cameras = [c if isinstance(c, Camera) else cameras_from_config([c], elevation)[0]
+               for c in cameras]
     ids = read_ids(split_dir / "done" / f"export-{shard}.txt")
     out_dir = split_dir / "sketches"
     progress = Progress(f"sketch shard {shard}", len(ids) * len(cameras), log)
