@@ -1,0 +1,40 @@
+"""Geometry Nodes toolkit: a typed graph builder, cached node groups, and the building
+blocks of GeoCode programs (SPEC §1). Importing this package imports bpy.
+
+A block is a `NodeGroup`; call it inside a builder to add an instance:
+
+    profile = rectangle_fillet(g, width=2, height=2, roundness=r)["Curve"]
+"""
+
+from geocode.nodes.curves import (
+    arc,
+    bezier_segment,
+    handle,
+    quadratic_cartesian,
+    quadratic_polar,
+)
+from geocode.nodes.evaluate import Evaluator
+from geocode.nodes.graph import PART_ATTRIBUTE, Graph, Node
+from geocode.nodes.group import NodeGroup, node_group
+from geocode.nodes.profiles import rectangle_fillet
+from geocode.nodes.sampling import sample_curve, sample_curve_array, sample_points
+from geocode.nodes.styles import leg, middle_expand_contract, rail, solidify, sweep
+from geocode.nodes.symmetry import mirror, radial
+from geocode.nodes.utils import align_curve_tilt_to_axis, align_curve_to_start_point
+
+BLOCKS: dict[str, NodeGroup] = {block.name: block for block in (
+    rectangle_fillet,
+    quadratic_polar, quadratic_cartesian, bezier_segment, arc, handle,
+    sweep, rail, leg, middle_expand_contract, solidify,
+    sample_curve, sample_curve_array, sample_points,
+    radial, mirror,
+    align_curve_to_start_point, align_curve_tilt_to_axis,
+)}
+
+__all__ = [
+    "BLOCKS", "PART_ATTRIBUTE", "Evaluator", "Graph", "Node", "NodeGroup", "node_group",
+    "rectangle_fillet", "quadratic_polar", "quadratic_cartesian", "bezier_segment", "arc",
+    "handle", "sweep", "rail", "leg", "middle_expand_contract", "solidify", "sample_curve",
+    "sample_curve_array", "sample_points", "radial", "mirror", "align_curve_to_start_point",
+    "align_curve_tilt_to_axis",
+]

@@ -1,0 +1,43 @@
+"""Utilities that keep curve directions stable while parameters change.
+
+Blender picks a curve's direction and normals from its shape, so a small edit can flip
+them; a part swept along such a curve would suddenly turn over. These blocks pin them.
+"""
+
+from __future__ import annotations
+
+from geocode.nodes.graph import Graph
+from geocode.nodes.group import node_group
+
+
+@node_group("UtilAlignCurveToStartPoint")
+def align_curve_to_start_point(g: Graph) -> None:
+    """Reverse `Curve` when its end lies closer to `Point` than its start does, so that
+    the curve always runs away from `Point`."""
+    curve = g.input("Curve", "geometry")
+    point = g.input("Point", "vector", default=(0, 0, 0))
+    first = g.node("GeometryNodeSampleCurve", {"Curves": curve, "Factor": 0.0},
+                   mode="FACTOR", use_all_curves=False)["Position"]
+    last = g.node("GeometryNodeSampleCurve", {"Curves": curve, "Factor": 1.0},
+                  mode="FACTOR", use_all_curves=False)["Position"]
+    backwards = g.compare("LESS_THAN", g.vmath("DISTANCE", last, point),
+                          g.vmath("DISTANCE", first, point), data_type="FLOAT")
+    reversed_curve = g.node("GeometryNodeReverseCurve", {"Curve": curve,
+                                                          "Selection": backwards})
+    g.output("Curve", "geometry", reversed_curve)
+
+
+@node_group("UtilAlignCurveTiltToAxis")
+def align_curve_tilt_to_axis(g: Graph) -> None:
+    """Set the normals of `Curve` to `Axis` made perpendicular to the tangent, so that a
+    profile swept along it keeps its orientation (profile +X along the normal) instead of
+    following Blender's minimum-twist frame."""
+    curve = g.input("Curve", "geometry")
+    axis = g.input("Axis", "vector", default=(1, 0, 0))
+    tangent = g.node("GeometryNodeInputTangent").out
+    along = g.vmath("SCALE", tangent, g.vmath("DOT_PRODUCT", axis, tangent))
+    normal = g.vmath("NORMALIZE", g.vmath("SUBTRACT", axis, along))
+    oriented = g.node("GeometryNodeSetCurveNormal", {
+        "Curve": curve, "Mode": "Free", "Normal": normal,
+    })
+    g.output("Curve", "geometry", oriented)
