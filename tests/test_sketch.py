@@ -42,6 +42,7 @@ def test_sketch_is_grey_black_on_white(tmp_path):
     data = _render(_cube(), tmp_path, CAMS[0])
     img = Image.open(io.BytesIO(data))
     assert img.mode == "L" and img.size == (224, 224)
+    assert not img.info                                                # no render-time text
     px = np.asarray(img)
     assert (px[:8, :8] == 255).all() and (px[-8:, -8:] == 255).all()   # white background
     assert (px < 128).sum() > 100                                      # some strokes

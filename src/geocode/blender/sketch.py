@@ -17,6 +17,7 @@ from __future__ import annotations
 import hashlib
 import logging
 import math
+import struct
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -89,6 +90,19 @@ def set_mesh_data(mesh, vertices: np.ndarray, faces: np.ndarray) -> None:
     mesh.polygons.add(len(faces))
     mesh.polygons.foreach_set("loop_start", np.arange(0, faces.size, 3, dtype=np.int32))
     mesh.update(calc_edges=True)
+
+
+def png_pixels_only(data: bytes) -> bytes:
+    """The PNG with only its critical chunks (IHDR, PLTE, IDAT, IEND): Cycles stamps render
+    times into tEXt chunks whatever the stamp settings, which would make bytes differ."""
+    keep, pos = [data[:8]], 8
+    while pos < len(data):
+        (length,) = struct.unpack(">I", data[pos:pos + 4])
+        end = pos + 12 + length
+        if data[pos + 4:pos + 8] in (b"IHDR", b"PLTE", b"IDAT", b"IEND"):
+            keep.append(data[pos:end])
+        pos = end
+    return b"".join(keep)
 
 
 class SketchRenderer:
@@ -206,7 +220,7 @@ class SketchRenderer:
             try:
                 with quiet_stdout():
                     self.bpy.ops.render.render(write_still=True, scene=self.scene.name)
-                png.replace(tmp)
+                Path(tmp).write_bytes(png_pixels_only(png.read_bytes()))
             finally:
                 png.unlink(missing_ok=True)
 
