@@ -110,6 +110,10 @@ def parser() -> argparse.ArgumentParser:
     c.add_argument("--metrics", required=True, nargs="+", type=Path)
     c.add_argument("-o", "--output", required=True, type=Path)
     c.set_defaults(run=cmd_tables)
+    c = sub.add_parser("report", help=f"an HTML page of inputs, ground truth and predictions ({step})")
+    c.add_argument("--metrics", required=True, nargs="+", type=Path)
+    c.add_argument("-o", "--output", required=True, type=Path)
+    c.set_defaults(run=cmd_report)
     c = sub.add_parser("config", help="print the composed config for these overrides")
     c.set_defaults(run=cmd_config)
 
@@ -302,7 +306,13 @@ def cmd_tables(args):
     return f"wrote {len(names)} tables to {args.output}: {', '.join(names)}"
 
 
-STEPS = {cmd_sample, cmd_export, cmd_sketch, cmd_points, cmd_train, cmd_config, cmd_simplify,
+def cmd_report(args):
+    from geocode.report import report_step
+
+    return report_step(step_config(args), args.metrics, args.output)
+
+
+STEPS = {cmd_report, cmd_sample, cmd_export, cmd_sketch, cmd_points, cmd_train, cmd_config, cmd_simplify,
          cmd_predict, cmd_rebuild, cmd_metrics, cmd_tables}
 
 

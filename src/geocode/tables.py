@@ -225,5 +225,6 @@ def write_tables(metrics: pd.DataFrame, cameras: list[dict], out_dir: Path, head
     index = ["# Results", "", header, "", "Each table: `.csv`, `.md`, `.tex`; the paper's values in the"
              " `(paper)` columns. Chamfer distances: lower is better.", ""]
     index += [f"- [{TITLES[n]}]({n}.md)" for n in tables]
+    index += ["", "Figures of inputs, ground truth and predictions: [../report/index.html](../report/index.html)"]
     write_text(out_dir / "README.md", "\n".join(index) + "\n")
     return list(tables)

@@ -3,7 +3,8 @@
 
 rule tables:
     input:
-        expand(f"{RUNS}/{{domain}}/{{variant}}/eval/metrics.parquet", domain=DOMAINS, variant=VARIANTS),
+        metrics=expand(f"{RUNS}/{{domain}}/{{variant}}/eval/metrics.parquet", domain=DOMAINS, variant=VARIANTS),
+        report="results/report/index.html",
     output:
         directory("results/tables"),
     log:
@@ -14,4 +15,21 @@ rule tables:
     resources:
         mem_mb=2000,
     shell:
-        "geocode tables -o {output} --metrics {input} {params.args} > {log} 2>&1"
+        "geocode tables -o {output} --metrics {input.metrics} {params.args} > {log} 2>&1"
+
+
+rule report:
+    """An HTML page with figures: inputs, ground truth and rebuilt predictions, side by side."""
+    input:
+        expand(f"{RUNS}/{{domain}}/joint/eval/metrics.parquet", domain=DOMAINS),
+    output:
+        "results/report/index.html",
+    log:
+        f"{LOGS}/report.log",
+    params:
+        args=" ".join(shlex.quote(o) for o in OVERRIDES),
+    threads: 1
+    resources:
+        mem_mb=3000,
+    shell:
+        "geocode report -o results/report --metrics {input} {params.args} > {log} 2>&1"
