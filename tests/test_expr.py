@@ -197,6 +197,13 @@ def test_evaluate_array_matches_scalar():
             assert batch[i] == scalar or (np.isnan(batch[i]) and np.isnan(scalar)), (text, i)
 
 
+def test_evaluate_array_mixes_scalars_and_arrays():
+    columns = {"a": np.array([0.0, 1.0, 2.0]), "fixed": 2.0}
+    expr = parse("a > 0 and fixed != 2 or a == 2 or fixed > 1 and a < 1")
+    assert expr.evaluate_array(columns).tolist() == [True, False, True]
+    assert bool(parse("fixed > 1 and fixed < 3").evaluate_array(columns)) is True
+
+
 def test_all_of_any_of_simplify():
     a, b, c = Name("a"), Name("b"), Name("c")
     assert all_of([]) == TRUE and any_of([]) == FALSE

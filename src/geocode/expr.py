@@ -17,6 +17,7 @@ literal is folded into the literal (`-1` is `Const(-1)`), and `Neg(Const(number)
 from __future__ import annotations
 
 import ast
+import functools
 import keyword
 import math
 from collections.abc import Iterable, Mapping
@@ -309,7 +310,9 @@ class And(_BoolOp):
         return all(item.evaluate(values) for item in self.items)
 
     def evaluate_array(self, columns):
-        return np.logical_and.reduce([item.evaluate_array(columns) for item in self.items])
+        return functools.reduce(
+            np.logical_and, (item.evaluate_array(columns) for item in self.items)
+        )
 
 
 @dataclass(frozen=True)
@@ -322,7 +325,9 @@ class Or(_BoolOp):
         return any(item.evaluate(values) for item in self.items)
 
     def evaluate_array(self, columns):
-        return np.logical_or.reduce([item.evaluate_array(columns) for item in self.items])
+        return functools.reduce(
+            np.logical_or, (item.evaluate_array(columns) for item in self.items)
+        )
 
 
 # ---------------------------------------------------------------- parsing
