@@ -1,0 +1,224 @@
+"""Point clouds from meshes (SPEC §3, §6): surface sampling, farthest point sampling,
+the per-shape clouds of the dataset, and the perturbed inputs of the robustness tables."""
+
+from __future__ import annotations
+
+import hashlib
+import io
+import logging
+import time
+import zipfile
+from collections.abc import Mapping
+from pathlib import Path
+
+import numpy as np
+import trimesh
+
+from geocode import meshio
+
+log = logging.getLogger(__name__)
+
+CLOUD_KEYS = ("fps", "random")
+
+
+def sample_surface(mesh: trimesh.Trimesh, n: int, rng: np.random.Generator) -> np.ndarray:
+    """n points uniform over the surface area, (n,3) float32.
+
+    A triangle is chosen with probability area_t / sum(area) (inverse CDF on the cumulative
+    areas), then a point inside it as a + u (b-a) + v (c-a) with u, v ~ U(0,1), reflected
+    (u, v) -> (1-u, 1-v) when u + v > 1 so that it is uniform over the triangle.
+    """
+    tri = np.asarray(mesh.vertices, dtype=np.float64)[np.asarray(mesh.faces)]  # (F,3,3)
+    ab, ac = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+    area = np.linalg.norm(np.cross(ab, ac), axis=1) / 2
+    cum = np.cumsum(area)
+    if len(cum) == 0 or not cum[-1] > 0:
+        raise ValueError("mesh has no surface area to sample")
+    face = np.searchsorted(cum, rng.random(n) * cum[-1], side="right")
+    face = np.minimum(face, len(cum) - 1)  # guards the u * total == total rounding case
+    uv = rng.random((n, 2))
+    flip = uv.sum(1) > 1
+    uv[flip] = 1 - uv[flip]
+    pts = tri[face, 0] + uv[:, :1] * ab[face] + uv[:, 1:] * ac[face]
+    return pts.astype(np.float32)
+
+
+def farthest_point_sampling(points: np.ndarray, k: int, start: int = 0) -> np.ndarray:
+    """Indices (k,) int64 of a greedy farthest-point subset, beginning at `start`.
+
+    Keeps d_i = min over chosen c of |p_i - c|^2 and picks argmax d each step (the first
+    index among ties), so the result is deterministic. O(k n) in float32, one fused pass
+    over a (3,n) array per step.
+    """
+    pts = np.ascontiguousarray(np.asarray(points, dtype=np.float32).T)  # (3,n)
+    n = pts.shape[1]
+    if not 0 < k <= n:
+        raise ValueError(f"farthest_point_sampling: k={k} must be in 1..{n} (number of points)")
+    dist = np.full(n, np.inf, dtype=np.float32)
+    diff = np.empty_like(pts)
+    sq = np.empty(n, dtype=np.float32)
+    out = np.empty(k, dtype=np.int64)
+    cur = int(start)
+    for i in range(k):
+        out[i] = cur
+        np.subtract(pts, pts[:, cur : cur + 1], out=diff)
+        np.multiply(diff, diff, out=diff)
+        np.add(diff[0], diff[1], out=sq)
+        sq += diff[2]
+        np.minimum(dist, sq, out=dist)
+        cur = int(dist.argmax())
+    return out
+
+
+def make_clouds(
+    mesh: trimesh.Trimesh,
+    surface: int = 30000,
+    fps: int = 1500,
+    random: int = 1500,
+    rng: np.random.Generator | None = None,
+) -> dict[str, np.ndarray]:
+    """The two clouds of one shape (SPEC §3), float32: "fps" = farthest point sampling of
+    `surface` area-weighted samples; "random" = a uniform random subset of those samples
+    (itself a uniform surface sample). rng=None means default_rng(0)."""
+    rng = np.random.default_rng(0) if rng is None else rng
+    dense = sample_surface(mesh, surface, rng)
+    pick = rng.choice(surface, size=random, replace=False)
+    return {"fps": dense[farthest_point_sampling(dense, fps)], "random": dense[pick]}
+
+
+def _npz_bytes(arrays: Mapping[str, np.ndarray]) -> bytes:
+    """An .npz archive with fixed timestamps (np.savez stamps the current time), so that
+    the same arrays always give the same bytes."""
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w", compression=zipfile.ZIP_STORED) as zf:
+        for key in sorted(arrays):
+            info = zipfile.ZipInfo(f"{key}.npy", date_time=(1980, 1, 1, 0, 0, 0))
+            body = io.BytesIO()
+            np.lib.format.write_array(body, np.ascontiguousarray(arrays[key]), allow_pickle=False)
+            zf.writestr(info, body.getvalue())
+    return buf.getvalue()
+
+
+def save_clouds(path: str | Path, clouds: Mapping[str, np.ndarray]) -> None:
+    """Write the clouds as .npz atomically (a crash never leaves a partial file)."""
+    meshio.write_bytes(path, _npz_bytes({k: np.asarray(v, np.float32) for k, v in clouds.items()}))
+
+
+def load_clouds(path: str | Path) -> dict[str, np.ndarray]:
+    """Read an .npz of clouds; ValueError naming the file when it is missing or broken."""
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            return {k: data[k] for k in data.files}
+    except (OSError, ValueError, zipfile.BadZipFile) as exc:
+        raise ValueError(f"{path}: not a readable point-cloud .npz ({exc})") from None
+
+
+def add_noise(points: np.ndarray, sigma: float, rng: np.random.Generator) -> np.ndarray:
+    """points + N(0, sigma^2) per coordinate (sigma in unit-sphere units), float32."""
+    pts = np.asarray(points, dtype=np.float32)
+    return (pts + rng.normal(0.0, sigma, size=pts.shape)).astype(np.float32)
+
+
+def sparse_cloud(mesh: trimesh.Trimesh, n: int, rng: np.random.Generator) -> np.ndarray:
+    """n uniform random surface points, no FPS (the sparse-input robustness test)."""
+    return sample_surface(mesh, n, rng)
+
+
+def simplify(mesh: trimesh.Trimesh, fraction: float) -> trimesh.Trimesh:
+    """Quadric decimation (open3d, Garland-Heckbert error metric) to about
+    fraction * faces triangles, at least 4."""
+    import open3d as o3d  # heavy import, only needed here
+
+    if not 0 < fraction <= 1:
+        raise ValueError(f"simplify: fraction={fraction} must be in (0, 1]")
+    target = max(4, int(round(fraction * len(mesh.faces))))
+    o3 = o3d.geometry.TriangleMesh(
+        o3d.utility.Vector3dVector(np.asarray(mesh.vertices, dtype=np.float64)),
+        o3d.utility.Vector3iVector(np.asarray(mesh.faces, dtype=np.int32)),
+    )
+    out = o3.simplify_quadric_decimation(target_number_of_triangles=target)
+    return trimesh.Trimesh(np.asarray(out.vertices), np.asarray(out.triangles), process=False)
+
+
+def shape_seed(seed: int, shape_id: str, stage: str = "points") -> int:
+    """A 64-bit seed from (seed, id, stage) via SHA-256: stable across processes and
+    Python versions, unlike hash()."""
+    digest = hashlib.sha256(f"{int(seed)}:{stage}:{shape_id}".encode()).digest()
+    return int.from_bytes(digest[:8], "little")
+
+
+def _complete(path: Path) -> bool:
+    """Whether a clouds file exists and holds both clouds (writes are atomic, so this is
+    a cheap guard against files from some other tool)."""
+    if not path.exists():
+        return False
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            return all(k in data.files for k in CLOUD_KEYS)
+    except (OSError, ValueError, zipfile.BadZipFile):
+        return False
+
+
+class _Progress:
+    """A log line at most every `every` seconds: count, rate, ETA."""
+
+    def __init__(self, total: int, label: str, every: float = 5.0):
+        self.total, self.label, self.every = total, label, every
+        self.t0 = self.last = time.perf_counter()
+
+    def update(self, done: int) -> None:
+        now = time.perf_counter()
+        if now - self.last < self.every and done < self.total:
+            return
+        self.last = now
+        rate = done / max(now - self.t0, 1e-9)
+        eta = (self.total - done) / rate if rate > 0 else float("inf")
+        log.info("%s: %d/%d shapes, %.1f/s, ETA %.0f s", self.label, done, self.total, rate, eta)
+
+
+def points_shard(
+    split_dir: str | Path, shard: int, cfg_points: Mapping[str, int], seed: int
+) -> Path:
+    """Clouds for the shapes of one shard; returns the done file.
+
+    Reads ids from <split_dir>/done/export-<shard>.txt, writes <split_dir>/points/<id>.npz
+    from <split_dir>/shapes/<id>.obj (skipping complete ones), then, last and atomically,
+    <split_dir>/done/points-<shard>.txt. cfg_points: keys surface, fps, random. Each shape's
+    rng is seeded from (seed, id), so reruns and any shard order give identical bytes.
+    """
+    split_dir = Path(split_dir)
+    ids_file = split_dir / "done" / f"export-{shard}.txt"
+    if not ids_file.exists():
+        raise FileNotFoundError(f"{ids_file}: missing; run the export stage for shard {shard}")
+    ids = [line.strip() for line in ids_file.read_text().splitlines() if line.strip()]
+    sizes = {k: int(cfg_points[k]) for k in ("surface", "fps", "random")}
+    progress = _Progress(len(ids), f"points shard {shard}")
+    for count, shape_id in enumerate(ids, 1):
+        out = split_dir / "points" / f"{shape_id}.npz"
+        if not _complete(out):
+            mesh = meshio.read_obj(split_dir / "shapes" / f"{shape_id}.obj")
+            rng = np.random.default_rng(shape_seed(seed, shape_id))
+            save_clouds(out, make_clouds(mesh, **sizes, rng=rng))
+        progress.update(count)
+    done = split_dir / "done" / f"points-{shard}.txt"
+    meshio.write_text(done, "".join(f"{i}\n" for i in ids))
+    return done
+
+
+def bench_mesh(sections: int = 64, rings: int = 80) -> trimesh.Trimesh:
+    """A closed vase-like surface of revolution with about 2 * sections * rings faces."""
+    z = np.linspace(0.0, 1.0, rings)
+    r = 0.25 + 0.12 * np.sin(2 * np.pi * z) + 0.05 * np.cos(6 * np.pi * z)
+    profile = np.column_stack([np.r_[0.0, r, 0.0], np.r_[0.0, z, 1.0]])
+    return trimesh.creation.revolve(profile, sections=sections)
+
+
+def bench_clouds(n: int = 50) -> float:
+    """Clouds per second for make_clouds at the paper's sizes on a ~10K-face mesh."""
+    mesh = bench_mesh()
+    rng = np.random.default_rng(0)
+    make_clouds(mesh, rng=rng)  # warm-up
+    t0 = time.perf_counter()
+    for _ in range(n):
+        make_clouds(mesh, rng=rng)
+    return n / (time.perf_counter() - t0)
