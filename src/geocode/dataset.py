@@ -10,9 +10,8 @@ import pandas as pd
 from omegaconf import DictConfig
 
 from geocode.config import data_dir, repo_root
-from geocode.meshio import write_parquet
 from geocode.recipe import Recipe, load_manifest
-from geocode.sampling import assign_shards, sample_dataset
+from geocode.sampling import assign_shards, sample_dataset, save_recipes
 
 log = logging.getLogger("geocode.sample")
 
@@ -46,7 +45,7 @@ def sample_step(cfg: DictConfig) -> str:
     for split in SPLITS:
         frame = spread_subset(splits[split], cfg.data.max_shapes[split])
         frame = assign_shards(frame, cfg.data.shards)
-        write_parquet(data_dir(cfg, domain, split) / "recipes.parquet", frame)
+        save_recipes(frame, data_dir(cfg, domain, split) / "recipes.parquet")
         counts.append(f"{split} {len(frame)}")
     summary = f"{domain}: " + ", ".join(counts) + " shapes"
     log.info(summary)

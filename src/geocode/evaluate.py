@@ -19,6 +19,7 @@ from omegaconf import DictConfig
 
 from geocode.config import data_dir
 from geocode.meshio import normalise_unit_sphere, read_obj, write_obj, write_parquet, write_text
+from geocode.sampling import load_recipes, save_recipes
 
 log = logging.getLogger("geocode.evaluate")
 
@@ -49,7 +50,7 @@ def conditions(cfg: DictConfig) -> list[dict]:
 
 
 def test_ids(cfg: DictConfig, domain: str) -> list[str]:
-    ids = pd.read_parquet(data_dir(cfg, domain, "test") / "recipes.parquet")["id"].tolist()
+    ids = load_recipes(data_dir(cfg, domain, "test") / "recipes.parquet")["id"].tolist()
     keep = cfg.eval.max_test_shapes
     return ids if keep is None else ids[:keep]
 
@@ -68,9 +69,9 @@ def simplify_step(cfg: DictConfig, domain: str, factor: int) -> str:
 
     src = data_dir(cfg, domain, "test")
     dst = data_dir(cfg, domain, simplified_split(factor))
-    recipes = pd.read_parquet(src / "recipes.parquet")
+    recipes = load_recipes(src / "recipes.parquet")
     recipes = recipes[recipes["id"].isin(test_ids(cfg, domain))]
-    write_parquet(dst / "recipes.parquet", recipes)
+    save_recipes(recipes, dst / "recipes.parquet")
     faces_before = faces_after = 0
     for shard in range(cfg.data.shards):
         rows = recipes[recipes["shard"] == shard]
@@ -137,7 +138,7 @@ def predict_step(cfg: DictConfig, domain: str, checkpoint: Path, out: Path) -> s
 
 def mean_shape(cfg: DictConfig, domain: str, recipe) -> pd.DataFrame:
     """The baseline: every parameter at its most frequent class in the training split."""
-    train = pd.read_parquet(data_dir(cfg, domain, "train") / "recipes.parquet")
+    train = load_recipes(data_dir(cfg, domain, "train") / "recipes.parquet")
     classes = recipe.class_matrix(train)                        # (n, P)
     common = {p.name: int(np.bincount(classes[:, j]).argmax()) for j, p in enumerate(recipe.parameters)}
     values = recipe.values_from_classes(common)

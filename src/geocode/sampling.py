@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from geocode.meshio import atomic_path
+from geocode.meshio import write_parquet
 from geocode.recipe import Recipe
 
 __all__ = [
@@ -307,8 +307,7 @@ def save_recipes(frame: pd.DataFrame, path: str | os.PathLike) -> None:
     missing = [c for c in META_COLUMNS if c not in frame]
     if missing:
         raise ValueError(f"recipes frame lacks column {missing[0]!r}")
-    with atomic_path(path) as tmp:
-        frame.reset_index(drop=True).to_parquet(tmp, index=False)
+    write_parquet(path, frame.reset_index(drop=True))
 
 
 def load_recipes(path: str | os.PathLike) -> pd.DataFrame:
