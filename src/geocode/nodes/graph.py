@@ -151,9 +151,9 @@ class Graph:
         item = self.tree.interface.new_socket(name, in_out="INPUT",
                                               socket_type=SOCKET_TYPES[kind])
         item.description = description
-        if min is not None:
+        if min is not None and kind != "bool":  # bool sockets have no range
             item.min_value = min
-        if max is not None:
+        if max is not None and kind != "bool":
             item.max_value = max
         if default is not None:
             item.default_value = tuple(default) if kind == "vector" else default

@@ -1,0 +1,267 @@
+"""The vase program: a hollow body of revolution-like sweep with handles, lid, rim, band
+and foot (39 parameters: 7 discrete, 32 continuous).
+
+Structure (every part touches the rest for every parameter combination):
+- body: a vertical path swept with a RectangleFillet profile (square -> round cross-section,
+  optional twist), scaled along the height by a smooth radius profile through six widths;
+  the open top is solidified into a wall of `wall_thickness` with a closed bottom;
+- handles: CurveHandle on the body's silhouette (the body's outline in the XZ plane), so
+  both ends sit on the body wall; copied radially `handle_count` times;
+- lid and knob on the lip, a rim around the lip, a band around the body;
+- foot: none, a pedestal, or radially placed legs; the whole vase is then grounded so that
+  its lowest point lies on z = 0.
+Part labels: body 1, rim 2, band 3, handle 4, lid 5, knob 6, foot 7.
+"""
+
+from __future__ import annotations
+
+from geocode.nodes import (
+    Graph,
+    handle,
+    leg,
+    middle_expand_contract,
+    node_group,
+    quadratic_cartesian,
+    radial,
+    rail,
+    rectangle_fillet,
+    solidify,
+    sweep,
+)
+from geocode.nodes.utils import align_curve_tilt_to_axis
+
+BODY, RIM, BAND, HANDLE, LID, KNOB, FOOT = 1, 2, 3, 4, 5, 6, 7
+BODY_RINGS = 40          # path points along the body's height
+PROFILE_RESOLUTION = 5   # fillet points per corner of the body's cross-section
+TUBE_RESOLUTION = 2      # ... of thin parts (handles, rim, band, legs)
+LIP_OVERHANG = 1.04      # the lid is a little wider than the lip it rests on
+KNOTS = ("Base", "Lower", "Belly", "Shoulder", "Neck", "Lip")
+
+
+@node_group("VaseRadius")
+def vase_radius(g: Graph) -> None:
+    """The body's half-width at `Factor` (fraction of its height): a smooth curve through
+    six (height, width) knots; between two knots it eases with a smoothstep, so it never
+    overshoots the knots and stays positive."""
+    factor = g.input("Factor", "float", default=0.0, min=0.0, max=1.0)
+    knots = []
+    for name in KNOTS:
+        height = g.input(f"{name} Height", "float", default=0.0, min=0.0, max=1.0)
+        width = g.input(f"{name} Width", "float", default=0.5, min=0.0)
+        knots.append((height, width))
+    radius = knots[0][1]
+    for (t0, w0), (t1, w1) in zip(knots, knots[1:], strict=False):
+        step = g.map_range(factor, t0, t1, 0.0, 1.0, interpolation="SMOOTHSTEP")
+        radius = g.add(radius, g.mul(g.sub(w1, w0), step))
+    g.output("Radius", "float", radius)
+
+
+class _Body:
+    """The body's shared quantities, so that every attached part follows edits."""
+
+    def __init__(self, g: Graph, p: dict):
+        self.g, self.p = g, p
+        self.height = p["body_height"]
+
+    def radius(self, factor):
+        knots = {"base_height": 0.0, "lower_height": self.p["lower_height"],
+                 "belly_height": self.p["belly_height"],
+                 "shoulder_height": self.p["shoulder_height"],
+                 "neck_height": self.p["neck_height"], "lip_height": 1.0}
+        widths = {f"{n.lower()}_width": self.p[f"{n.lower()}_width"] for n in KNOTS}
+        return vase_radius(self.g, factor=factor, **knots, **widths)["Radius"]
+
+    def profile(self, resolution=PROFILE_RESOLUTION):
+        return rectangle_fillet(self.g, width=2.0, height=2.0,
+                                roundness=self.p["roundness"], resolution=resolution)["Curve"]
+
+    def twist_at(self, factor):
+        return self.g.mul(self.p["twist"], factor)
+
+    def path(self, bottom, top, points):
+        """Vertical path from z=bottom to z=top, its profile's +X pinned to world +X."""
+        g = self.g
+        line = g.node("GeometryNodeCurvePrimitiveLine", {
+            "Start": g.combine(0.0, 0.0, bottom), "End": g.combine(0.0, 0.0, top)})
+        path = g.node("GeometryNodeResampleCurve", {"Curve": line, "Mode": "Count",
+                                                    "Count": points}).out
+        return align_curve_tilt_to_axis(g, curve=path, axis=(1.0, 0.0, 0.0))["Curve"]
+
+    def loop_at(self, factor):
+        """The body's outline at `factor` of its height, as a closed curve."""
+        g = self.g
+        scale = self.radius(factor)
+        return g.transform(self.profile(),
+                           translation=g.combine(0.0, 0.0, g.mul(factor, self.height)),
+                           rotation=g.combine(0.0, 0.0, self.twist_at(factor)),
+                           scale=g.combine(scale, scale, 1.0))
+
+
+def _parameters(g: Graph) -> dict:
+    p = {}
+
+    def add(name, kind, default, low, high, description):
+        p[name] = g.input(name, kind, default=default, min=low, max=high,
+                          description=description)
+
+    add("body_height", "float", 1.0, 0.6, 1.6, "height of the body")
+    add("base_width", "float", 0.3, 0.15, 0.5, "half-width of the body at its base")
+    add("lower_width", "float", 0.4, 0.2, 0.6, "half-width at the lower knot")
+    add("lower_height", "float", 0.15, 0.08, 0.3, "height of the lower knot (fraction)")
+    add("belly_width", "float", 0.5, 0.25, 0.75, "half-width at the belly")
+    add("belly_height", "float", 0.42, 0.32, 0.55, "height of the belly (fraction)")
+    add("shoulder_width", "float", 0.4, 0.2, 0.65, "half-width at the shoulder")
+    add("shoulder_height", "float", 0.68, 0.6, 0.75, "height of the shoulder (fraction)")
+    add("neck_width", "float", 0.2, 0.1, 0.4, "half-width at the neck")
+    add("neck_height", "float", 0.86, 0.8, 0.92, "height of the neck (fraction)")
+    add("lip_width", "float", 0.25, 0.1, 0.5, "half-width at the lip (top)")
+    add("roundness", "float", 1.0, 0.0, 1.0, "cross-section: 0 square, 1 round")
+    add("twist", "float", 0.0, 0.0, 1.5, "twist of the cross-section over the height (rad)")
+    add("wall_thickness", "float", 0.02, 0.01, 0.03, "thickness of the body's wall")
+    add("lip_rim", "bool", True, 0, 1, "a rounded rim around the lip")
+    add("lip_rim_size", "float", 0.02, 0.01, 0.04, "radius of the rim's tube")
+    add("band", "bool", False, 0, 1, "a decorative band around the body")
+    add("band_height", "float", 0.5, 0.2, 0.8, "height of the band (fraction)")
+    add("band_size", "float", 0.02, 0.01, 0.04, "radius of the band's tube")
+    add("handle_count", "int", 2, 0, 4, "number of handles (radial symmetry)")
+    add("handle_bottom", "float", 0.3, 0.15, 0.45, "lower attachment (fraction of outline)")
+    add("handle_top", "float", 0.8, 0.55, 0.95, "upper attachment (fraction of outline)")
+    add("handle_reach", "float", 0.15, 0.06, 0.35, "how far the handle bulges out")
+    add("handle_peak", "float", 0.5, 0.0, 1.0, "where the bulge peaks: 0 low, 1 high")
+    add("handle_thickness", "float", 0.025, 0.015, 0.04, "half-width of the handle")
+    add("handle_roundness", "float", 1.0, 0.0, 1.0, "handle cross-section: square to round")
+    add("lid", "bool", False, 0, 1, "a lid on the lip")
+    add("lid_thickness", "float", 0.04, 0.02, 0.08, "thickness of the lid's flat part")
+    add("lid_dome", "float", 0.05, 0.0, 0.15, "height of the lid's dome")
+    add("knob", "bool", True, 0, 1, "a knob on the lid")
+    add("knob_size", "float", 0.04, 0.02, 0.08, "half-width of the knob")
+    add("knob_height", "float", 0.06, 0.03, 0.12, "height of the knob")
+    add("knob_roundness", "float", 1.0, 0.0, 1.0, "knob cross-section: square to round")
+    add("foot_style", "int", 0, 0, 2, "foot: 0 none, 1 pedestal, 2 legs")
+    add("foot_height", "float", 0.08, 0.03, 0.2, "height of the foot")
+    add("foot_width", "float", 1.0, 0.6, 1.4, "pedestal's bottom width (times the base)")
+    add("leg_count", "int", 3, 3, 5, "number of legs")
+    add("leg_thickness", "float", 0.025, 0.015, 0.04, "half-width of a leg at its top")
+    add("leg_splay", "float", 0.05, 0.0, 0.15, "how far the legs spread outwards")
+    return p
+
+
+def _body_mesh(body: _Body):
+    """Swept outer surface without its top cap, given a wall by Solidify."""
+    g, p = body.g, body.p
+    path = body.path(0.0, body.height, BODY_RINGS)
+    path = g.node("GeometryNodeSetCurveTilt", {
+        "Curve": path, "Tilt": body.twist_at(g.spline_factor())}).out
+    outer = sweep(g, curve=path, profile_curve=body.profile(),
+                  scale=body.radius(g.spline_factor()), fill_caps=True, part=BODY)["Mesh"]
+    top_z = g.separate(g.position())["Z"]
+    normal_z = g.separate(g.node("GeometryNodeInputNormal")["Normal"])["Z"]
+    is_top_cap = g.boolean("AND", g.compare("GREATER_THAN", top_z, g.sub(body.height, 1e-4)),
+                           g.compare("GREATER_THAN", normal_z, 0.9))
+    open_top = g.node("GeometryNodeDeleteGeometry", {"Geometry": outer,
+                                                     "Selection": is_top_cap},
+                      domain="FACE", mode="ONLY_FACE").out
+    return solidify(g, mesh=open_top, thickness=p["wall_thickness"])["Mesh"]
+
+
+def _silhouette(body: _Body):
+    """The body's outline in the XZ plane (x = half-width at azimuth 0): handles attach to it."""
+    g = body.g
+    path = body.path(0.0, body.height, BODY_RINGS)
+    offset = g.combine(body.radius(g.spline_factor()), 0.0, 0.0)
+    return g.node("GeometryNodeSetPosition", {"Geometry": path, "Offset": offset}).out
+
+
+def _tube_profile(g: Graph, roundness=1.0):
+    return rectangle_fillet(g, width=2.0, height=2.0, roundness=roundness,
+                            resolution=TUBE_RESOLUTION)["Curve"]
+
+
+def _handles(body: _Body):
+    g, p = body.g, body.p
+    curve = handle(g, curve=_silhouette(body), start=p["handle_bottom"], end=p["handle_top"],
+                   reach=p["handle_reach"], peak=p["handle_peak"],
+                   inset=g.mul(p["wall_thickness"], 0.5), resolution=20)["Curve"]
+    one = rail(g, curve=curve, profile_curve=_tube_profile(g, p["handle_roundness"]),
+               radius=p["handle_thickness"], fill_caps=True, part=HANDLE)["Mesh"]
+    copies = radial(g, geometry=one, count=p["handle_count"], radius=0.0)["Geometry"]
+    has_handles = g.compare("GREATER_THAN", p["handle_count"], 0, data_type="INT")
+    return g.switch(has_handles, None, copies, data_type="GEOMETRY")
+
+
+def _ring(body: _Body, factor, size, part):
+    """A tube of radius `size` around the body's outline at `factor` of its height."""
+    g = body.g
+    return rail(g, curve=body.loop_at(factor), profile_curve=_tube_profile(g), radius=size,
+                fill_caps=False, part=part)["Mesh"]
+
+
+def _lid(body: _Body):
+    g, p = body.g, body.p
+    # sink the lid into the wall a little so that the two overlap
+    bottom = g.sub(body.height, g.mul(p["wall_thickness"], 0.25))
+    flat_top = g.add(body.height, p["lid_thickness"])
+    top = g.add(flat_top, p["lid_dome"])
+    path = body.path(bottom, top, 10)
+    path = g.node("GeometryNodeSetCurveTilt", {"Curve": path, "Tilt": p["twist"]}).out
+    # the dome: a quarter ellipse from the full lid width down to 30% of it
+    height = g.separate(g.position())["Z"]
+    u = g.map_range(height, flat_top, g.add(flat_top, g.maximum(p["lid_dome"], 1e-4)), 0, 1)
+    dome = g.add(0.3, g.mul(0.7, g.math("SQRT", g.sub(1.0, g.mul(u, u)))))
+    scale = g.mul(g.mul(p["lip_width"], LIP_OVERHANG), dome)
+    lid = sweep(g, curve=path, profile_curve=body.profile(), scale=scale, fill_caps=True,
+                part=LID)["Mesh"]
+    knob_path = body.path(g.sub(top, 0.005), g.add(top, p["knob_height"]), 8)
+    knob = middle_expand_contract(
+        g, curve=knob_path, profile_curve=_tube_profile(g, p["knob_roundness"]),
+        radius=p["knob_size"], amount=0.6, fill_caps=True, part=KNOB)["Mesh"]
+    with_knob = g.join([lid, g.switch(p["knob"], None, knob, data_type="GEOMETRY")])
+    return g.switch(p["lid"], None, with_knob, data_type="GEOMETRY")
+
+
+def _pedestal(body: _Body):
+    g, p = body.g, body.p
+    top = g.add(p["foot_height"], g.mul(p["wall_thickness"], 0.5))
+    path = body.path(0.0, top, 8)
+    t = g.spline_factor()
+    width = g.lerp(g.mul(p["base_width"], p["foot_width"]), g.mul(p["base_width"], 0.8), t)
+    waist = g.sub(1.0, g.mul(0.2, g.math("SINE", g.mul(t, 3.14159265))))
+    return sweep(g, curve=path, profile_curve=body.profile(), scale=g.mul(width, waist),
+                 fill_caps=True, part=FOOT)["Mesh"]
+
+
+def _legs(body: _Body):
+    g, p = body.g, body.p
+    x = g.mul(p["base_width"], 0.6)
+    start = g.combine(x, 0.0, g.add(p["foot_height"], g.mul(p["wall_thickness"], 0.5)))
+    end = g.combine(g.add(x, p["leg_splay"]), 0.0, 0.0)
+    curve = quadratic_cartesian(g, start=start, end=end,
+                                offset=g.combine(g.mul(p["leg_splay"], 0.3), 0.0, 0.0),
+                                resolution=8)["Curve"]
+    one = leg(g, curve=curve, profile_curve=_tube_profile(g), top_radius=p["leg_thickness"],
+              bottom_radius=g.mul(p["leg_thickness"], 0.7), fill_caps=True, part=FOOT)["Mesh"]
+    return radial(g, geometry=one, count=p["leg_count"], radius=0.0,
+                  start_angle=0.785398)["Geometry"]
+
+
+def build(g: Graph) -> None:
+    p = _parameters(g)
+    body = _Body(g, p)
+    upper = g.join([
+        _body_mesh(body),
+        g.switch(p["lip_rim"], None, _ring(body, 1.0, p["lip_rim_size"], RIM),
+                 data_type="GEOMETRY"),
+        g.switch(p["band"], None, _ring(body, p["band_height"], p["band_size"], BAND),
+                 data_type="GEOMETRY"),
+        _handles(body),
+        _lid(body),
+    ])
+    lift = g.index_switch(p["foot_style"], [0.0, p["foot_height"], p["foot_height"]],
+                          data_type="FLOAT")
+    foot = g.index_switch(p["foot_style"], [None, _pedestal(body), _legs(body)],
+                          data_type="GEOMETRY")
+    vase = g.join([g.transform(upper, translation=g.combine(0.0, 0.0, lift)), foot])
+    # ground it: whatever the parts, the lowest point rests on z = 0
+    lowest = g.separate(g.node("GeometryNodeBoundBox", {"Geometry": vase})["Min"])["Z"]
+    grounded = g.transform(vase, translation=g.combine(0.0, 0.0, g.mul(lowest, -1.0)))
+    g.output("Geometry", "geometry", grounded)
