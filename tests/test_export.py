@@ -13,6 +13,7 @@ import yaml
 
 from geocode import meshio
 from geocode.blender import export
+from geocode.sampling import save_recipes
 
 
 class Param:
@@ -52,10 +53,11 @@ class RecipeDouble:
 
 def _recipes(split_dir, rows):
     frame = pd.DataFrame(rows)
+    frame.insert(0, "forced_class", 0)
+    frame.insert(0, "forced", "height")
     frame.insert(0, "shard", [i % 2 for i in range(len(frame))])
     frame.insert(0, "id", [f"train-{i:06d}" for i in range(len(frame))])
-    split_dir.mkdir(parents=True, exist_ok=True)
-    frame.to_parquet(split_dir / "recipes.parquet")
+    save_recipes(frame, split_dir / "recipes.parquet")
     return frame
 
 
@@ -119,7 +121,7 @@ def test_bad_part_labels_fail_and_leave_no_done_file(tmp_path):
 
 def test_missing_columns_named(tmp_path):
     pd.DataFrame({"id": ["train-000000"]}).to_parquet(tmp_path / "recipes.parquet")
-    with pytest.raises(ValueError, match="shard"):
+    with pytest.raises(ValueError, match="'shard'.*sample step"):
         list(export.shard_rows(tmp_path / "recipes.parquet", 0))
 
 
@@ -130,8 +132,9 @@ def _vase_or_skip():
         pytest.skip("geocode.program is not written yet (another engineer's module)")
     if importlib.util.find_spec("geocode.recipe") is None:
         pytest.skip("geocode.recipe is not written yet (another engineer's module)")
-    if not (repo_root() / "programs" / "vase.py").exists():
-        pytest.skip("programs/vase.py is not written yet")
+    for name in ("vase.py", "vase.yaml"):
+        if not (repo_root() / "programs" / name).exists():
+            pytest.skip(f"programs/{name} is not written yet")
     pytest.importorskip("bpy")
     program = export.load_program("vase")
     return program, export.load_recipe(program)

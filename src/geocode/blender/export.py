@@ -43,15 +43,13 @@ def unit_mesh(program, values: Mapping[str, float]):
 
 
 def shard_rows(recipes: str | Path, shard: int) -> Iterator[tuple[str, dict[str, float]]]:
-    """(id, raw values) for the rows of `recipes.parquet` with `shard == shard`, in file order."""
-    import pandas as pd
+    """(id, raw values) for the rows of `recipes.parquet` with `shard == shard`, in file order
+    (the sampler's bookkeeping columns are not parameter values)."""
+    from geocode.sampling import META_COLUMNS, load_recipes
 
-    frame = pd.read_parquet(recipes)
-    missing = {"id", "shard"} - set(frame.columns)
-    if missing:
-        raise ValueError(f"{recipes}: missing columns {sorted(missing)}; rerun the sample step")
+    frame = load_recipes(recipes)
     frame = frame[frame["shard"] == shard]
-    columns = [c for c in frame.columns if c not in ("id", "shard")]
+    columns = [c for c in frame.columns if c not in META_COLUMNS]
     for shape_id, row in zip(frame["id"], frame[columns].itertuples(index=False), strict=True):
         yield str(shape_id), {c: float(v) for c, v in zip(columns, row, strict=True)}
 
