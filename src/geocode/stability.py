@@ -6,6 +6,8 @@ its height it keeps its height within 2% after about 5 s of simulated time.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 import trimesh
 from scipy.sparse import coo_matrix
@@ -261,3 +263,229 @@ def loose_parts(mesh: trimesh.Trimesh, tol: float = 1e-3) -> int:
     graph = coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(n, n))
     _, label = connected_components(graph, directed=False)
     return int(n - np.bincount(label).max())
+
+
+# ---------------------------------------------------------------------------------------------
+# Drop test: a small rigid-body simulation against the plane z = 0
+# ---------------------------------------------------------------------------------------------
+
+GRAVITY = 9.81  # m/s^2; shapes are read as metres (unit-sphere shapes are ~1-2 m tall)
+
+
+@dataclass(frozen=True)
+class DropConfig:
+    """Settings of the drop test (SPEC §6).
+
+    The contact is a spring-damper per penetrating hull vertex, normalised by the number of
+    such vertices (a contact patch: total normal stiffness k whatever the count, so a flat
+    base of many coplanar vertices is as stiff as one corner and the explicit step stays
+    stable). k is set so that the weight alone sinks the body by `sink` * height, and the
+    damping ratio zeta from the restitution e: zeta = -ln e / sqrt(pi^2 + ln^2 e).
+    Friction is regularised Coulomb, |F_t| = mu F_n |v_t| / sqrt(|v_t|^2 + slip^2).
+    """
+
+    drop: float = 0.05  # start with the lowest point this fraction of the height above the plane
+    duration: float = 5.0  # s simulated at most
+    dt: float = 1e-3  # s per semi-implicit Euler step
+    friction: float = 0.5  # Coulomb coefficient mu
+    restitution: float = 0.2  # coefficient of restitution e of one bounce
+    sink: float = 5e-4  # static penetration under the weight, as a fraction of the height
+    slip: float = 1e-2  # friction regularisation speed, as a fraction of sqrt(g * height)
+    tolerance: float = 0.02  # stable when |height after - height before| <= tolerance * before
+    max_contacts: int = 256  # hull vertices used as contact points at most (FPS keeps extremes)
+    rest_speed: float = 1e-3  # settled when all speeds stay below this * sqrt(g * height) ...
+    rest_time: float = 0.3  # ... for this long (s)
+
+
+@dataclass
+class _Body:
+    """Rigid body: mass m, inertia about the centre of mass in the body frame, and the
+    contact points (convex hull vertices) relative to the centre of mass."""
+
+    mass: float
+    inertia: np.ndarray  # (3,3) body frame
+    points: np.ndarray  # (N,3) body frame
+    source: str  # "solid" (the mesh) or "convex_hull" (fallback for non-closed meshes)
+
+
+def _mass_properties(mesh: trimesh.Trimesh) -> tuple[float, np.ndarray, np.ndarray, str]:
+    """(mass, centre of mass, inertia about it, source) at unit density.
+
+    A closed, consistently wound mesh with positive volume uses its own solid mass
+    properties (overlapping closed parts count twice: uniform density per part). Anything
+    else uses its convex hull's solid: a documented approximation that keeps the centre of
+    mass inside the support geometry.
+    """
+    solid = mesh
+    if not mesh.is_volume:
+        merged = mesh.copy()
+        merged.merge_vertices()
+        solid = merged if merged.is_volume else mesh.convex_hull
+    source = "solid" if solid is not mesh.convex_hull else "convex_hull"
+    props = solid.mass_properties
+    return float(props.mass), np.asarray(props.center_mass), np.asarray(props.inertia), source
+
+
+def _rigid_body(mesh: trimesh.Trimesh, cfg: DropConfig) -> tuple[_Body, np.ndarray]:
+    """The body and its centre of mass in the mesh frame."""
+    mass, com, inertia, source = _mass_properties(mesh)
+    hull = np.asarray(mesh.convex_hull.vertices, dtype=np.float64)
+    if len(hull) > cfg.max_contacts:
+        from geocode.points import farthest_point_sampling
+
+        hull = hull[farthest_point_sampling(hull, cfg.max_contacts)]
+    return _Body(mass, inertia, hull - com, source), com
+
+
+def _rotation(q: np.ndarray) -> np.ndarray:
+    """Rotation matrix of a unit quaternion q = (w, x, y, z)."""
+    w, x, y, z = q
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+        ]
+    )
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a x b for 3-vectors (np.cross costs ~10 us a call; this runs every step)."""
+    return np.array(
+        [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+    )
+
+
+def _contact_wrench(
+    arm: np.ndarray, depth: np.ndarray, v: np.ndarray, w: np.ndarray, k: float, c: float,
+    mu: float, slip: float,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Total force and torque (about the centre of mass) from penetrating points.
+
+    arm (n,3) world offsets of the points from the centre of mass, depth (n,) > 0. Point
+    velocity u = v + w x arm; normal force F_n = max(0, k depth - c u_z) / n; friction
+    F_t = -mu F_n u_t / sqrt(|u_t|^2 + slip^2); torque = sum arm x F.
+    """
+    n = len(depth)
+    ux = v[0] + w[1] * arm[:, 2] - w[2] * arm[:, 1]
+    uy = v[1] + w[2] * arm[:, 0] - w[0] * arm[:, 2]
+    uz = v[2] + w[0] * arm[:, 1] - w[1] * arm[:, 0]
+    fn = np.maximum(k * depth - c * uz, 0.0) / n
+    scale = -mu * fn / np.sqrt(ux * ux + uy * uy + slip * slip)
+    fx, fy = scale * ux, scale * uy
+    ax, ay, az = arm[:, 0], arm[:, 1], arm[:, 2]
+    force = np.array([fx.sum(), fy.sum(), fn.sum()])
+    torque = np.array(
+        [(ay * fn - az * fy).sum(), (az * fx - ax * fn).sum(), (ax * fy - ay * fx).sum()]
+    )
+    return force, torque
+
+
+def _simulate(body: _Body, height: float, start_z: float, cfg: DropConfig) -> dict:
+    """Semi-implicit (symplectic) Euler from rest at centre-of-mass height start_z.
+
+    v += dt (F/m + g); w += dt I_w^-1 (tau - w x I_w w) with I_w = R I_b R^T;
+    x += dt v; q += dt/2 (0, w) * q, renormalised. Stops early once every speed has stayed
+    below rest_speed * sqrt(g h) for rest_time seconds.
+    """
+    m, g, dt = body.mass, GRAVITY, cfg.dt
+    k = m * g / (cfg.sink * height)
+    zeta = -np.log(cfg.restitution) / np.sqrt(np.pi**2 + np.log(cfg.restitution) ** 2)
+    c = 2 * zeta * np.sqrt(k * m)
+    slip = cfg.slip * np.sqrt(g * height)
+    rest = cfg.rest_speed * np.sqrt(g * height)
+    inv_inertia = np.linalg.inv(body.inertia)
+    x = np.array([0.0, 0.0, start_z])
+    q = np.array([1.0, 0.0, 0.0, 0.0])
+    v, w = np.zeros(3), np.zeros(3)
+    steps, still = int(round(cfg.duration / dt)), 0
+    need_still = int(round(cfg.rest_time / dt))
+    for step in range(1, steps + 1):
+        rot = _rotation(q)
+        arm = body.points @ rot.T
+        depth = -(x[2] + arm[:, 2])
+        touching = depth > 0
+        force = np.array([0.0, 0.0, -m * g])
+        torque = np.zeros(3)
+        if touching.any():
+            f, t = _contact_wrench(
+                arm[touching], depth[touching], v, w, k, c, cfg.friction, slip
+            )
+            force += f
+            torque += t
+        inertia_w = rot @ body.inertia @ rot.T
+        v = v + dt * force / m
+        w = w + dt * (rot @ inv_inertia @ rot.T) @ (torque - _cross(w, inertia_w @ w))
+        x = x + dt * v
+        q = q + 0.5 * dt * np.array(
+            [
+                -w[0] * q[1] - w[1] * q[2] - w[2] * q[3],
+                w[0] * q[0] + w[1] * q[3] - w[2] * q[2],
+                w[1] * q[0] + w[2] * q[1] - w[0] * q[3],
+                w[2] * q[0] + w[0] * q[2] - w[1] * q[1],
+            ]
+        )
+        q /= np.sqrt(q @ q)
+        slow = touching.any() and np.abs(v).max() < rest and np.abs(w).max() * height < rest
+        still = still + 1 if slow else 0
+        if still >= need_still:
+            break
+    arm = body.points @ _rotation(q).T
+    return {"steps": step, "sim_time": step * dt, "settled": still >= need_still,
+            "x": x, "q": q, "arm": arm}
+
+
+def _drop(mesh: trimesh.Trimesh, cfg: DropConfig) -> dict:
+    """The dynamic half of the drop test (no loose-part check)."""
+    body, _ = _rigid_body(mesh, cfg)
+    z = body.points[:, 2]
+    before = float(z.max() - z.min())
+    if not before > 0:
+        raise ValueError("drop_test: the shape has zero height")
+    com_before = float(-z.min())  # centre of mass above the lowest point
+    out = _simulate(body, before, com_before + cfg.drop * before, cfg)
+    za = out["arm"][:, 2]
+    after, com_after = float(za.max() - za.min()), float(-za.min())
+    change = abs(after - before) / before
+    com_change = abs(com_after - com_before) / before
+    up = _rotation(out["q"])[:, 2]
+    return {
+        "standing": bool(change <= cfg.tolerance and com_change <= cfg.tolerance),
+        "height_before": before,
+        "height_after": after,
+        "height_change": change,
+        "com_height_before": com_before,
+        "com_height_after": com_after,
+        "com_height_change": com_change,
+        "tilt_deg": float(np.degrees(np.arccos(np.clip(up[2], -1.0, 1.0)))),
+        "settled": out["settled"],
+        "sim_time": out["sim_time"],
+        "steps": out["steps"],
+        "mass_source": body.source,
+    }
+
+
+def drop_test(mesh: trimesh.Trimesh, cfg: DropConfig | None = None, tol: float = 1e-3) -> dict:
+    """Loose parts plus a drop onto the plane z = 0 (SPEC §6); z is up.
+
+    The body starts at rest, as given, with its lowest point cfg.drop * height above the
+    plane, and runs for cfg.duration s (or until settled). Height = z-extent of the shape
+    (max z - min z of its convex-hull vertices, the same as the mesh's); the centre-of-mass
+    height is measured above the lowest point. Stable when there are no loose parts and
+    both |height_after - height_before| and |com_after - com_before| are at most
+    cfg.tolerance * height_before; the second catches a shape that turns over onto a side
+    of the same extent (e.g. upside down). Returns stable, loose_parts, height_before,
+    height_after, height_change (relative), com_height_*, tilt_deg (angle of the body's up
+    axis from z), settled, sim_time, steps, mass_source.
+    """
+    cfg = cfg or DropConfig()
+    loose = loose_parts(mesh, tol)
+    out = _drop(mesh, cfg)
+    return {"stable": bool(loose == 0 and out.pop("standing")), "loose_parts": loose, **out}
+
+
+def is_stable(mesh: trimesh.Trimesh, cfg: DropConfig | None = None, tol: float = 1e-3) -> bool:
+    """drop_test(mesh)["stable"], without simulating shapes that have loose parts."""
+    if loose_parts(mesh, tol) > 0:
+        return False
+    return _drop(mesh, cfg or DropConfig())["standing"]
