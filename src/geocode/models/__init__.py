@@ -1,0 +1,11 @@
+"""Networks (SPEC §4): DGCNN and VGG encoders, per-parameter decoders, the LightningModule."""
+
+from geocode.models.dgcnn import DGCNN, DGCNNReference, edge_conv_fast, gather_neighbours, knn, knn_chunked
+from geocode.models.heads import Decoders, head_specs
+from geocode.models.module import VARIANTS, GeoCodeModule
+from geocode.models.vgg import VGGSketchEncoder
+
+__all__ = [
+    "DGCNN", "DGCNNReference", "Decoders", "GeoCodeModule", "VARIANTS", "VGGSketchEncoder",
+    "edge_conv_fast", "gather_neighbours", "head_specs", "knn", "knn_chunked",
+]

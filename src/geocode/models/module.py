@@ -1,0 +1,187 @@
+"""The GeoCode network as a LightningModule, with the paper's ablation variants (SPEC §4, §6).
+
+Variants:
+  joint       one point encoder, one sketch encoder, one set of decoders shared by both
+  separate    the same encoders, a set of decoders per modality
+  regression  continuous parameters regressed (value, existence) with MSE
+  huang       Huang et al. 2017: a classification network for the discrete parameters and a
+              separate regression network for the continuous ones, trained on the same data
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+
+import pytorch_lightning as pl
+import torch
+from torch import nn
+
+from geocode.models.dgcnn import DGCNN, DGCNNReference
+from geocode.models.heads import Decoders
+from geocode.models.vgg import VGG_CHANNELS, VGGSketchEncoder
+
+VARIANTS = ("joint", "separate", "regression", "huang")
+MODALITIES = ("points", "sketch")
+
+
+class Branch(nn.Module):
+    """Two encoders and their decoders for a subset of the parameters.
+
+    Shapes: points (B, N, 3), sketches (B, 1, H, W) -> {modality: {name: (B, width)}}.
+    """
+
+    def __init__(
+        self,
+        specs: Sequence[Mapping],
+        separate: bool,
+        regression: bool,
+        k: int,
+        edge_channels: Sequence[int],
+        point_channels: int,
+        sketch_channels: Sequence[int | str],
+        sketch_pool: int,
+        hidden: Sequence[int],
+        dropout: float,
+        fast: bool,
+    ) -> None:
+        super().__init__()
+        dgcnn = DGCNN if fast else DGCNNReference
+        self.points = dgcnn(k=k, channels=edge_channels, out_channels=point_channels)
+        self.sketch = VGGSketchEncoder(sketch_channels, out_dim=2 * point_channels, pool_size=sketch_pool)
+        keys = MODALITIES if separate else ("shared",)
+        self.decoders = nn.ModuleDict(
+            {key: Decoders(specs, 2 * point_channels, hidden, dropout, regression) for key in keys}
+        )
+
+    def decoder(self, modality: str) -> Decoders:
+        return self.decoders[modality if modality in self.decoders else "shared"]
+
+    def forward(self, points=None, sketches=None) -> dict[str, dict[str, torch.Tensor]]:
+        out = {}
+        if points is not None:
+            out["points"] = self.decoder("points")(self.points(points))
+        if sketches is not None:
+            out["sketch"] = self.decoder("sketch")(self.sketch(sketches))
+        return out
+
+
+def branch_layout(variant: str, specs: Sequence[Mapping]) -> list[tuple[list[dict], bool, bool]]:
+    """(specs, separate decoders?, regression?) for each network of a variant."""
+    specs = [dict(s) for s in specs]
+    if variant == "joint":
+        return [(specs, False, False)]
+    if variant == "separate":
+        return [(specs, True, False)]
+    if variant == "regression":
+        return [(specs, False, True)]
+    if variant == "huang":
+        discrete = [s for s in specs if not s["continuous"]]
+        continuous = [s for s in specs if s["continuous"]]
+        return [(group, False, reg) for group, reg in ((discrete, False), (continuous, True)) if group]
+    raise ValueError(f"model.variant={variant!r}: use one of {', '.join(VARIANTS)}")
+
+
+class GeoCodeModule(pl.LightningModule):
+    """Point clouds and sketches -> one class per program parameter.
+
+    loss = sum_params CE(decoder(DGCNN(points))) + sum_params CE(decoder(VGG(sketch)))
+    (MSE for regressed parameters). Adam + StepLR, as in the paper.
+
+    Batches: {"points": (B, N, 3) float, "sketch": (B, 1, 224, 224) float, "labels": (B, P) int64}.
+    """
+
+    def __init__(
+        self,
+        heads: Sequence[Mapping],
+        variant: str = "joint",
+        k: int = 20,
+        edge_channels: Sequence[int] = (16, 16, 32, 64),
+        point_channels: int = 64,
+        sketch_channels: Sequence[int | str] = VGG_CHANNELS,
+        sketch_pool: int = 7,
+        hidden: Sequence[int] = (128, 64),
+        dropout: float = 0.5,
+        fast: bool = True,
+        lr: float = 1e-2,
+        step_size: int = 20,
+        gamma: float = 0.9,
+    ) -> None:
+        super().__init__()
+        heads = [dict(h) for h in heads]
+        self.save_hyperparameters(
+            {"heads": heads, "variant": variant, "k": k, "edge_channels": list(edge_channels),
+             "point_channels": point_channels, "sketch_channels": list(sketch_channels),
+             "sketch_pool": sketch_pool, "hidden": list(hidden), "dropout": dropout, "fast": fast,
+             "lr": lr, "step_size": step_size, "gamma": gamma}
+        )
+        self.parameter_names = [h["name"] for h in heads]
+        self.columns = {name: j for j, name in enumerate(self.parameter_names)}
+        self.branches = nn.ModuleList(
+            Branch(group, sep, reg, k, edge_channels, point_channels, sketch_channels, sketch_pool,
+                   hidden, dropout, fast)
+            for group, sep, reg in branch_layout(variant, heads)
+        )
+
+    # ------------------------------------------------------------ inference
+
+    def forward(self, points=None, sketches=None) -> dict[str, dict[str, torch.Tensor]]:
+        """{modality: {parameter: head output}} over all branches."""
+        out: dict[str, dict[str, torch.Tensor]] = {}
+        for branch in self.branches:
+            for modality, heads in branch(points, sketches).items():
+                out.setdefault(modality, {}).update(heads)
+        return out
+
+    def classes(self, outputs: Mapping[str, torch.Tensor], modality: str) -> torch.Tensor:
+        """Head outputs of one modality -> class indices. Shapes: -> (B, P) int64."""
+        found: dict[str, torch.Tensor] = {}
+        for branch in self.branches:
+            found.update(branch.decoder(modality).classes(outputs))
+        return torch.stack([found[name] for name in self.parameter_names], dim=1)
+
+    @torch.inference_mode()
+    def predict_classes(self, points=None, sketches=None) -> dict[str, torch.Tensor]:
+        """Eval-mode class indices per modality. Shapes: -> {modality: (B, P) int64}."""
+        outputs = self(points, sketches)
+        return {m: self.classes(o, m) for m, o in outputs.items()}
+
+    # ------------------------------------------------------------ training
+
+    def _loss(self, outputs, labels: torch.Tensor, modality: str) -> torch.Tensor:
+        return sum(b.decoder(modality).loss(outputs, labels, self.columns) for b in self.branches)
+
+    def _step(self, batch: Mapping[str, torch.Tensor], stage: str) -> torch.Tensor:
+        labels = batch["labels"]  # (B, P)
+        outputs = self(batch.get("points"), batch.get("sketch"))
+        size = labels.shape[0]
+        total = 0.0
+        accs = []
+        for modality, out in outputs.items():
+            loss = self._loss(out, labels, modality)
+            total = total + loss
+            correct = (self.classes(out, modality) == labels).float()  # (B, P)
+            acc = correct.mean()
+            accs.append(acc)
+            self.log(f"{stage}/loss_{modality}", loss, batch_size=size, on_epoch=True, on_step=False)
+            self.log(f"{stage}/acc_{modality}", acc, batch_size=size, on_epoch=True, on_step=False)
+            if stage == "val":
+                per = correct.mean(dim=0)  # (P,)
+                self.log_dict({f"val_param/{modality}/{n}": per[j] for n, j in self.columns.items()},
+                              batch_size=size, on_epoch=True, on_step=False)
+        self.log(f"{stage}/loss", total, batch_size=size, on_epoch=True, on_step=stage == "train",
+                 prog_bar=True)
+        self.log(f"{stage}/acc", torch.stack(accs).mean(), batch_size=size, on_epoch=True,
+                 on_step=False, prog_bar=True)
+        return total
+
+    def training_step(self, batch, batch_idx):
+        return self._step(batch, "train")
+
+    def validation_step(self, batch, batch_idx):
+        self._step(batch, "val")
+
+    def configure_optimizers(self):
+        hp = self.hparams
+        opt = torch.optim.Adam(self.parameters(), lr=hp.lr)
+        sched = torch.optim.lr_scheduler.StepLR(opt, step_size=hp.step_size, gamma=hp.gamma)
+        return {"optimizer": opt, "lr_scheduler": {"scheduler": sched, "interval": "epoch"}}
