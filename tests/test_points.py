@@ -13,8 +13,8 @@ from geocode.points import (
     load_clouds,
     make_clouds,
     points_shard,
-    save_clouds,
     sample_surface,
+    save_clouds,
     simplify,
     sparse_cloud,
 )
@@ -22,9 +22,7 @@ from geocode.points import (
 
 def two_triangles() -> trimesh.Trimesh:
     """Two disjoint right triangles with areas 1/2 and 3/2 (ratio 1:3)."""
-    v = np.array(
-        [[0, 0, 0], [1, 0, 0], [0, 1, 0], [5, 0, 0], [8, 0, 0], [5, 1, 0]], dtype=float
-    )
+    v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [5, 0, 0], [8, 0, 0], [5, 1, 0]], dtype=float)
     return trimesh.Trimesh(v, [[0, 1, 2], [3, 4, 5]], process=False)
 
 
@@ -87,7 +85,10 @@ def test_make_clouds_shapes_and_surface():
 
 def test_npz_round_trip_is_byte_stable(tmp_path):
     rng = np.random.default_rng(0)
-    clouds = {"fps": rng.random((10, 3), dtype=np.float32), "random": rng.random((4, 3), dtype=np.float32)}
+    clouds = {
+        "fps": rng.random((10, 3), dtype=np.float32),
+        "random": rng.random((4, 3), dtype=np.float32),
+    }
     save_clouds(tmp_path / "a.npz", clouds)
     save_clouds(tmp_path / "b.npz", clouds)
     back = load_clouds(tmp_path / "a.npz")
@@ -126,7 +127,9 @@ def _split(tmp_path, n=3):
     split = tmp_path / "train"
     ids = [f"train-{i:06d}" for i in range(n)]
     for i, shape_id in enumerate(ids):
-        meshio.write_obj(split / "shapes" / f"{shape_id}.obj", trimesh.creation.icosphere(1 + i % 2))
+        meshio.write_obj(
+            split / "shapes" / f"{shape_id}.obj", trimesh.creation.icosphere(1 + i % 2)
+        )
     meshio.write_text(split / "done" / "export-0.txt", "".join(f"{i}\n" for i in ids))
     return split, ids
 

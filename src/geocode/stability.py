@@ -105,7 +105,7 @@ class _Part:
         self.tri_hi = np.maximum(np.maximum(t0, t1), t2)
         self.closed = closed
 
-    def overlaps(self, other: "_Part", tol: float) -> bool:
+    def overlaps(self, other: _Part, tol: float) -> bool:
         return bool(np.all(self.lo <= other.hi + tol) and np.all(other.lo <= self.hi + tol))
 
     def in_box(self, pts: np.ndarray, tol: float) -> np.ndarray:
@@ -235,7 +235,7 @@ def _components(mesh: trimesh.Trimesh, tol: float) -> tuple[list[_Part], float]:
     # a component is closed when each of its edges joins exactly two faces
     open_edges = np.bincount(elabel, weights=counts != 2, minlength=n)
     parts = []
-    for f, e in zip(_groups(vlabel[welded[:, 0]]), _groups(elabel)):
+    for f, e in zip(_groups(vlabel[welded[:, 0]]), _groups(elabel), strict=True):
         label = vlabel[welded[f[0], 0]]
         parts.append(_Part(vertices, welded[f], edges[e], open_edges[label] == 0))
     return parts, eps
@@ -259,8 +259,8 @@ def loose_parts(mesh: trimesh.Trimesh, tol: float = 1e-3) -> int:
     if n == 1:
         return 0
     pairs = [(i, j) for i in range(n) for j in range(i + 1, n) if _touches(parts[i], parts[j], eps)]
-    rows, cols = (list(x) for x in zip(*pairs)) if pairs else ([], [])
-    graph = coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(n, n))
+    ij = np.array(pairs, dtype=np.int64).reshape(-1, 2)
+    graph = coo_matrix((np.ones(len(ij)), (ij[:, 0], ij[:, 1])), shape=(n, n))
     _, label = connected_components(graph, directed=False)
     return int(n - np.bincount(label).max())
 
@@ -357,8 +357,14 @@ def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def _contact_wrench(
-    arm: np.ndarray, depth: np.ndarray, v: np.ndarray, w: np.ndarray, k: float, c: float,
-    mu: float, slip: float,
+    arm: np.ndarray,
+    depth: np.ndarray,
+    v: np.ndarray,
+    w: np.ndarray,
+    k: float,
+    c: float,
+    mu: float,
+    slip: float,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Total force and torque (about the centre of mass) from penetrating points.
 
@@ -398,9 +404,10 @@ def _simulate(body: _Body, height: float, start_z: float, cfg: DropConfig) -> di
     x = np.array([0.0, 0.0, start_z])
     q = np.array([1.0, 0.0, 0.0, 0.0])
     v, w = np.zeros(3), np.zeros(3)
-    steps, still = int(round(cfg.duration / dt)), 0
+    steps, still, step = int(round(cfg.duration / dt)), 0, 0
     need_still = int(round(cfg.rest_time / dt))
-    for step in range(1, steps + 1):
+    while step < steps:
+        step += 1
         rot = _rotation(q)
         arm = body.points @ rot.T
         depth = -(x[2] + arm[:, 2])
@@ -408,9 +415,7 @@ def _simulate(body: _Body, height: float, start_z: float, cfg: DropConfig) -> di
         force = np.array([0.0, 0.0, -m * g])
         torque = np.zeros(3)
         if touching.any():
-            f, t = _contact_wrench(
-                arm[touching], depth[touching], v, w, k, c, cfg.friction, slip
-            )
+            f, t = _contact_wrench(arm[touching], depth[touching], v, w, k, c, cfg.friction, slip)
             force += f
             torque += t
         inertia_w = rot @ body.inertia @ rot.T
@@ -431,8 +436,14 @@ def _simulate(body: _Body, height: float, start_z: float, cfg: DropConfig) -> di
         if still >= need_still:
             break
     arm = body.points @ _rotation(q).T
-    return {"steps": step, "sim_time": step * dt, "settled": still >= need_still,
-            "x": x, "q": q, "arm": arm}
+    return {
+        "steps": step,
+        "sim_time": step * dt,
+        "settled": still >= need_still,
+        "x": x,
+        "q": q,
+        "arm": arm,
+    }
 
 
 def _drop(mesh: trimesh.Trimesh, cfg: DropConfig) -> dict:
