@@ -1,0 +1,242 @@
+"""Training data: a split's clouds, sketches and class labels in memory, items, a DataModule.
+
+Layout (docs/design.md): <root>/<split>/recipes.parquet, points/<id>.npz (fps, random),
+sketches/<id>_<camera>.png. Labels are the recipe's class indices (the existence class where
+the parameter is invisible), computed for the whole split at once (`Recipe.class_matrix`).
+
+Sketch convention: float32 (1, H, W) in [0, 1], white background = 1, black strokes = 0
+(the PNG / 255, not inverted). Stroke dilation is a min filter, erosion a max filter.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from collections.abc import Mapping, Sequence
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pytorch_lightning as pl
+import torch
+import torch.nn.functional as F
+from PIL import Image
+from torch.utils.data import DataLoader, Dataset
+
+IO_THREADS = 8  # file reads release the GIL (zlib, PNG decoding)
+
+
+# ---------------------------------------------------------------- files
+
+
+def load_sketch(path: str | Path) -> np.ndarray:
+    """A sketch PNG as float32 (1, H, W) in [0, 1] (white 1, strokes 0)."""
+    return load_sketch_u8(path)[None].astype(np.float32) / 255.0
+
+
+def load_sketch_u8(path: str | Path) -> np.ndarray:
+    """A sketch PNG as uint8 (H, W); ValueError naming the file when missing or broken."""
+    try:
+        with Image.open(path) as im:
+            return np.asarray(im.convert("L"), dtype=np.uint8)
+    except (OSError, ValueError) as exc:
+        raise ValueError(f"{path}: not a readable sketch PNG ({exc}); rerun the sketch step") from None
+
+
+def _load_npz(path: Path) -> tuple[np.ndarray, np.ndarray]:
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            return data["fps"].astype(np.float32), data["random"].astype(np.float32)
+    except (OSError, ValueError, KeyError) as exc:
+        raise ValueError(f"{path}: not a readable point-cloud .npz ({exc}); rerun the points step") from None
+
+
+def id_rng(shape_id: str, salt: str = "eval-cloud") -> np.random.Generator:
+    """A generator seeded by a stable hash of the shape id (same draw in every process)."""
+    digest = hashlib.sha256(f"{salt}:{shape_id}".encode()).digest()
+    return np.random.default_rng(int.from_bytes(digest[:8], "little"))
+
+
+def eval_pick(n_random: int, n_pick: int, shape_id: str) -> np.ndarray:
+    """The fixed evaluation choice of `n_pick` of a shape's random points (sorted indices)."""
+    return np.sort(id_rng(shape_id).permutation(n_random)[:n_pick])
+
+
+def eval_cloud(clouds: Mapping[str, np.ndarray], n_random: int, shape_id: str) -> np.ndarray:
+    """The evaluation cloud: all FPS points + a fixed, id-seeded draw of `n_random` random
+    points. Shapes: fps (F, 3), random (R, 3) -> (F + n_random, 3) float32."""
+    rand = np.asarray(clouds["random"], dtype=np.float32)
+    pick = eval_pick(len(rand), n_random, shape_id)
+    return np.concatenate([np.asarray(clouds["fps"], dtype=np.float32), rand[pick]])
+
+
+# ---------------------------------------------------------------- a split in memory
+
+
+@dataclass
+class SplitData:
+    """One split, loaded once. Shapes: fps (n, F, 3), random (n, R, 3) float32,
+    sketches {camera: (n, H, W) uint8}, labels (n, P) int64."""
+
+    ids: list[str]
+    fps: np.ndarray
+    random: np.ndarray
+    sketches: dict[str, np.ndarray]
+    labels: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.ids)
+
+
+def load_split(split_dir: str | Path, recipe, cameras: Sequence[str]) -> SplitData:
+    """Read a split folder: labels from recipes.parquet, clouds and sketches in parallel."""
+    from geocode.sampling import load_recipes
+
+    split_dir = Path(split_dir)
+    frame = load_recipes(split_dir / "recipes.parquet")
+    ids = [str(i) for i in frame["id"]]
+    if not ids:
+        raise ValueError(f"{split_dir / 'recipes.parquet'}: no shapes in this split; sample more")
+    labels = recipe.class_matrix(frame).astype(np.int64)  # (n, P)
+    with ThreadPoolExecutor(IO_THREADS) as pool:
+        clouds = list(pool.map(_load_npz, [split_dir / "points" / f"{i}.npz" for i in ids]))
+        sketches = {
+            cam: np.stack(list(pool.map(load_sketch_u8, [split_dir / "sketches" / f"{i}_{cam}.png" for i in ids])))
+            for cam in cameras
+        }
+    fps = np.stack([c[0] for c in clouds])  # (n, F, 3)
+    rand = np.stack([c[1] for c in clouds])  # (n, R, 3)
+    return SplitData(ids, fps, rand, sketches, labels)
+
+
+# ---------------------------------------------------------------- items
+
+
+@dataclass(frozen=True)
+class SketchAugment:
+    """Training-only sketch augmentation: horizontal flip with p `flip`; then stroke
+    dilation (min filter, p `dilate`) or erosion (max filter, p `erode`), `kernel` wide."""
+
+    flip: float = 0.5
+    dilate: float = 0.25
+    erode: float = 0.25
+    kernel: int = 3
+
+    def __call__(self, x: torch.Tensor, gen: torch.Generator | None = None) -> torch.Tensor:
+        """Shapes: x (1, H, W) in [0, 1] -> (1, H, W)."""
+        u = torch.rand(2, generator=gen)
+        if u[0] < self.flip:
+            x = x.flip(-1)
+        pad = self.kernel // 2
+        if u[1] < self.dilate:  # dark strokes grow: min filter
+            x = -F.max_pool2d(-x[None], self.kernel, stride=1, padding=pad)[0]
+        elif u[1] < self.dilate + self.erode:  # dark strokes shrink: max filter
+            x = F.max_pool2d(x[None], self.kernel, stride=1, padding=pad)[0]
+        return x
+
+
+class ShapeItems(Dataset):
+    """Items of one split: {"points": (F + n_random, 3), "sketch": (1, H, W), "labels": (P,)}.
+
+    Training: a fresh draw of n_random random points and a random camera of `cameras` per
+    item, plus sketch augmentation. Evaluation: the id-seeded draw (`eval_cloud`) and
+    cameras[0], no augmentation.
+    """
+
+    def __init__(
+        self,
+        data: SplitData,
+        n_random: int,
+        cameras: Sequence[str],
+        train: bool,
+        augment: SketchAugment | None = None,
+    ) -> None:
+        self.data = data
+        self.n_random = n_random
+        self.cameras = list(cameras)
+        self.train = train
+        self.augment = augment if train else None
+        if not train:
+            total = data.random.shape[1]
+            self.picks = np.stack([eval_pick(total, n_random, i) for i in data.ids])  # (n, n_random)
+
+    def __len__(self) -> int:
+        return len(self.data)
+
+    def __getitem__(self, i: int) -> dict[str, torch.Tensor]:
+        d = self.data
+        if self.train:
+            pick = torch.randperm(d.random.shape[1])[: self.n_random].numpy()
+            cam = self.cameras[int(torch.randint(len(self.cameras), ()))]
+        else:
+            pick, cam = self.picks[i], self.cameras[0]
+        points = np.concatenate([d.fps[i], d.random[i][pick]])  # (F + n_random, 3)
+        sketch = torch.from_numpy(d.sketches[cam][i]).float().div_(255.0)[None]  # (1, H, W)
+        if self.augment is not None:
+            sketch = self.augment(sketch)
+        return {"points": torch.from_numpy(points), "sketch": sketch,
+                "labels": torch.from_numpy(d.labels[i])}
+
+
+# ---------------------------------------------------------------- DataModule
+
+
+class GeoCodeDataModule(pl.LightningDataModule):
+    """train / val items of one domain's dataset folder (<root>/<split>/...).
+
+    `cameras`: the training cameras (a training item picks one at random); validation uses
+    `eval_camera` (default: the first training camera).
+    """
+
+    def __init__(
+        self,
+        root: str | Path,
+        recipe,
+        cameras: Sequence[str],
+        n_random: int = 800,
+        batch_size: int = 33,
+        num_workers: int = 0,
+        augment: SketchAugment | None = None,
+        eval_camera: str | None = None,
+    ) -> None:
+        super().__init__()
+        self.root = Path(root)
+        self.recipe = recipe
+        self.cameras = list(cameras)
+        self.eval_camera = eval_camera or self.cameras[0]
+        self.n_random = n_random
+        self.batch_size = batch_size
+        self.num_workers = num_workers
+        self.augment = augment if augment is not None else SketchAugment()
+        self.splits: dict[str, SplitData] = {}
+
+    def split(self, name: str) -> SplitData:
+        """A split, read once and kept."""
+        if name not in self.splits:
+            cams = self.cameras if name == "train" else [self.eval_camera]
+            self.splits[name] = load_split(self.root / name, self.recipe, cams)
+        return self.splits[name]
+
+    def setup(self, stage: str | None = None) -> None:
+        if stage in (None, "fit"):
+            self.split("train")
+        if stage in (None, "fit", "validate"):
+            self.split("val")
+
+    def _loader(self, items: Dataset, train: bool) -> DataLoader:
+        return DataLoader(
+            items,
+            batch_size=self.batch_size,
+            shuffle=train,
+            drop_last=train and len(items) > self.batch_size,  # no 1-item BatchNorm batches
+            num_workers=self.num_workers,
+            persistent_workers=self.num_workers > 0,
+        )
+
+    def train_dataloader(self) -> DataLoader:
+        items = ShapeItems(self.split("train"), self.n_random, self.cameras, True, self.augment)
+        return self._loader(items, True)
+
+    def val_dataloader(self) -> DataLoader:
+        items = ShapeItems(self.split("val"), self.n_random, [self.eval_camera], False)
+        return self._loader(items, False)

@@ -1,0 +1,57 @@
+"""Throughput of the point encoders and single-sample inference latency (SPEC §4 targets)."""
+
+from __future__ import annotations
+
+import time
+
+import torch
+
+from geocode.models.dgcnn import DGCNN, DGCNNReference
+from geocode.models.module import GeoCodeModule
+
+
+def _best_time(fn, repeats: int) -> float:
+    fn()  # warm-up
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - start)
+    return min(times)  # the least disturbed run on a shared machine
+
+
+def _train_step(model: torch.nn.Module, points: torch.Tensor):
+    def step():
+        model.zero_grad(set_to_none=True)
+        model(points).square().mean().backward()
+
+    return step
+
+
+def bench_train(batch: int = 33, n_points: int = 2300, repeats: int = 3, n_heads: int = 39, seed: int = 0) -> dict:
+    """Samples/s of forward+backward (train mode) of DGCNNReference and DGCNN on one batch,
+    and eval-mode latency of the whole joint model for one point cloud and one sketch."""
+    torch.manual_seed(seed)
+    points = torch.rand(batch, n_points, 3) * 2 - 1  # (B, N, 3)
+    ref = DGCNNReference().train()
+    fast = DGCNN().train()
+    fast.load_state_dict(ref.state_dict())
+    t_fast = _best_time(_train_step(fast, points), repeats)
+    t_ref = _best_time(_train_step(ref, points), max(1, repeats - 1))
+    heads = [{"name": f"p{i}", "n_classes": 5 + i % 3, "continuous": True, "existence": i % 4 == 0}
+             for i in range(n_heads)]
+    model = GeoCodeModule(heads).eval()
+    one_cloud = points[:1]
+    one_sketch = torch.rand(1, 1, 224, 224)
+    with torch.inference_mode():
+        pc_s = _best_time(lambda: model.predict_classes(points=one_cloud), 10)
+        sk_s = _best_time(lambda: model.predict_classes(sketches=one_sketch), 10)
+    return {
+        "reference_samples_per_s": batch / t_ref,
+        "fast_samples_per_s": batch / t_fast,
+        "speedup": t_ref / t_fast,
+        "inference_ms": 1000 * max(pc_s, sk_s),
+        "inference_points_ms": 1000 * pc_s,
+        "inference_sketch_ms": 1000 * sk_s,
+        "threads": torch.get_num_threads(),
+    }

@@ -1,0 +1,248 @@
+"""Training, checkpoints and batch prediction (SPEC §4).
+
+    train(cfg, out_dir=None) -> dict        # Lightning fit; resumes from <out>/checkpoints/last.ckpt
+    load_model(checkpoint) -> GeoCodeModule  # eval mode, weights_only loading
+    predict_classes(model, points=... | sketches=...) -> (N, P) int64
+    predict(checkpoint, points=None, sketches=None) -> {"points": (N, P), "sketch": (N, P)}
+    bench_train() -> {"reference_samples_per_s", "fast_samples_per_s", "speedup", "inference_ms"}
+"""
+
+from __future__ import annotations
+
+import logging
+import sys
+from collections.abc import Mapping
+from pathlib import Path
+
+import numpy as np
+import pytorch_lightning as pl
+import torch
+from omegaconf import DictConfig, OmegaConf
+
+from geocode.models.bench import bench_train
+from geocode.models.module import GeoCodeModule
+
+log = logging.getLogger(__name__)
+
+__all__ = ["CheckpointError", "bench_train", "load_model", "predict", "predict_classes", "train"]
+
+
+class CheckpointError(ValueError):
+    """A checkpoint that cannot be read or does not fit; one line naming the file."""
+
+
+# ---------------------------------------------------------------- config helpers
+
+
+def load_domain_recipe(cfg: DictConfig):
+    """The recipe of cfg.domain: programs/<domain>.yaml against the built manifest."""
+    from geocode.config import repo_root
+    from geocode.recipe import Recipe, load_manifest
+
+    domain = cfg.domain.name
+    manifest = Path(cfg.paths.build) / "programs" / f"{domain}.manifest.json"
+    recipe_path = Path(cfg.domain.get("recipe") or f"programs/{domain}.yaml")
+    if not recipe_path.is_absolute():
+        recipe_path = repo_root() / recipe_path
+    parameters, visibility = load_manifest(manifest)
+    return Recipe.load(recipe_path, parameters, visibility)
+
+
+def camera_names(cfg: DictConfig) -> list[str]:
+    """Training cameras: cfg.data.sketch.cameras entries with train: true."""
+    return [str(c.name) for c in cfg.data.sketch.cameras if c.get("train", False)]
+
+
+def run_dir(cfg: DictConfig, out_dir: str | Path | None) -> Path:
+    if out_dir is not None:
+        return Path(out_dir)
+    if cfg.train.get("out_dir"):
+        return Path(cfg.train.out_dir)
+    return Path(cfg.paths.runs) / cfg.domain.name / str(cfg.model.get("variant", "joint"))
+
+
+def build_model(cfg: DictConfig, recipe) -> GeoCodeModule:
+    """cfg.model instantiated with the recipe's heads and the optimiser settings of cfg.train."""
+    from hydra.utils import instantiate
+
+    from geocode.models.heads import head_specs
+
+    return instantiate(
+        cfg.model, heads=head_specs(recipe), lr=float(cfg.train.lr),
+        step_size=int(cfg.train.step_size), gamma=float(cfg.train.gamma), _convert_="all",
+    )
+
+
+def build_datamodule(cfg: DictConfig, recipe):
+    from geocode.data import GeoCodeDataModule, SketchAugment
+
+    t = cfg.train
+    aug = OmegaConf.to_container(t.augment, resolve=True) if t.get("augment") else {}
+    return GeoCodeDataModule(
+        root=Path(cfg.paths.data) / cfg.domain.name,
+        recipe=recipe,
+        cameras=camera_names(cfg),
+        n_random=int(cfg.data.points.train_random),
+        batch_size=int(t.batch_size),
+        num_workers=int(t.num_workers),
+        augment=SketchAugment(**aug),
+        eval_camera=t.get("eval_camera"),
+    )
+
+
+# ---------------------------------------------------------------- training
+
+
+class EpochLog(pl.Callback):
+    """A one-line summary per validation epoch, for non-interactive logs."""
+
+    def on_validation_epoch_end(self, trainer, pl_module):
+        if trainer.sanity_checking:
+            return
+        m = trainer.callback_metrics
+        keys = ("train/loss", "val/loss", "val/acc", "val/acc_points", "val/acc_sketch")
+        text = " ".join(f"{k}={float(m[k]):.4f}" for k in keys if k in m)
+        log.info("epoch %d: %s", trainer.current_epoch, text)
+
+
+def train(cfg: DictConfig, out_dir: str | Path | None = None) -> dict:
+    """Fit cfg.model on cfg.domain's train split, validate on val; checkpoints in
+    <out>/checkpoints (best.ckpt by val/acc, last.ckpt), CSV and TensorBoard logs in <out>.
+    Resumes from last.ckpt when it is there."""
+    from pytorch_lightning.callbacks import ModelCheckpoint
+    from pytorch_lightning.loggers import CSVLogger, TensorBoardLogger
+
+    t = cfg.train
+    out = run_dir(cfg, out_dir)
+    ckpt_dir = out / "checkpoints"
+    out.mkdir(parents=True, exist_ok=True)
+    pl.seed_everything(int(cfg.seed), workers=True)
+    recipe = load_domain_recipe(cfg)
+    model = build_model(cfg, recipe)
+    data = build_datamodule(cfg, recipe)
+    last = ckpt_dir / "last.ckpt"
+    resume = last if last.exists() else None
+    if resume is not None:
+        check_compatible(resume, model)
+    OmegaConf.save(cfg, out / "config.yaml", resolve=True)
+    best_cb = ModelCheckpoint(dirpath=ckpt_dir, filename="best", monitor="val/acc", mode="max",
+                              save_last=True, enable_version_counter=False)
+    progress = t.get("progress_bar")
+    trainer = pl.Trainer(
+        max_epochs=int(t.max_epochs),
+        accelerator=t.get("accelerator", "auto"),
+        devices=t.get("devices", "auto"),
+        deterministic=t.get("deterministic", False),
+        default_root_dir=out,
+        logger=[CSVLogger(out, name="logs", version=""), TensorBoardLogger(out, name="tb", version="")],
+        callbacks=[best_cb, EpochLog()],
+        enable_progress_bar=sys.stderr.isatty() if progress is None else bool(progress),
+        enable_model_summary=False,
+        limit_train_batches=t.get("limit_train_batches") or 1.0,
+        limit_val_batches=t.get("limit_val_batches") or 1.0,
+        log_every_n_steps=int(t.get("log_every_n_steps", 10)),
+        num_sanity_val_steps=0,
+    )
+    trainer.fit(model, datamodule=data, ckpt_path=resume, weights_only=True)
+    score = best_cb.best_model_score
+    result = {
+        "out_dir": str(out),
+        "best": str(ckpt_dir / "best.ckpt"),
+        "last": str(last),
+        "best_val_acc": None if score is None else float(score),
+        "epochs": int(trainer.current_epoch),
+        "resumed": resume is not None,
+    }
+    log.info("trained %s: %s", cfg.domain.name, result)
+    return result
+
+
+# ---------------------------------------------------------------- checkpoints
+
+
+def read_checkpoint(path: str | Path, map_location="cpu") -> dict:
+    """torch.load(weights_only=True) of a geocode checkpoint; CheckpointError otherwise."""
+    path = Path(path)
+    if not path.is_file():
+        raise CheckpointError(f"{path}: checkpoint not found; train first")
+    try:
+        ckpt = torch.load(path, map_location=map_location, weights_only=True)
+    except Exception as exc:  # torch raises many types for a broken file
+        reason = " ".join(str(exc).split())[:160]
+        raise CheckpointError(f"{path}: not a readable checkpoint ({reason}); retrain or pick another file") from None
+    if not isinstance(ckpt, Mapping) or "state_dict" not in ckpt or "heads" not in ckpt.get("hyper_parameters", {}):
+        raise CheckpointError(f"{path}: not a geocode model checkpoint (no state_dict / heads)")
+    return dict(ckpt)
+
+
+def check_compatible(path: Path, model: GeoCodeModule) -> None:
+    """Resume only from a checkpoint of the same network (variant, heads, tensor shapes)."""
+    ckpt = read_checkpoint(path)
+    mine = model.state_dict()
+    theirs = ckpt["state_dict"]
+    bad = sorted(set(mine) ^ set(theirs)) or [k for k in mine if mine[k].shape != theirs[k].shape]
+    if bad or ckpt["hyper_parameters"].get("heads") != model.hparams.heads:
+        what = bad[0] if bad else "heads"
+        raise CheckpointError(f"{path}: checkpoint of a different model ({what}); delete it or train into another --out")
+
+
+def load_model(checkpoint: str | Path, map_location="cpu") -> GeoCodeModule:
+    """A trained GeoCodeModule in eval mode, rebuilt from the checkpoint's hyperparameters."""
+    ckpt = read_checkpoint(checkpoint, map_location)
+    try:
+        model = GeoCodeModule(**ckpt["hyper_parameters"])
+        model.load_state_dict(ckpt["state_dict"])
+    except (TypeError, ValueError, RuntimeError, KeyError) as exc:
+        reason = " ".join(str(exc).split())[:160]
+        raise CheckpointError(f"{checkpoint}: checkpoint does not fit the model ({reason})") from None
+    return model.eval()
+
+
+# ---------------------------------------------------------------- prediction
+
+
+def _as_tensor(x: np.ndarray, device) -> torch.Tensor:
+    t = torch.as_tensor(np.asarray(x))
+    if t.dtype == torch.uint8:
+        t = t.float() / 255.0
+    return t.to(device=device, dtype=torch.float32)
+
+
+def predict_classes(model: GeoCodeModule, points=None, sketches=None, batch_size: int = 64) -> np.ndarray:
+    """Class indices (N, P) int64 for one modality, in model.parameter_names order.
+
+    Shapes: points (N, M, 3) (any M >= 1), or sketches (N, 1, H, W) / (N, H, W) float in
+    [0, 1] (white background) or uint8.
+    """
+    if (points is None) == (sketches is None):
+        raise ValueError("predict_classes: give exactly one of points= or sketches=")
+    modality, inputs = ("points", points) if points is not None else ("sketch", sketches)
+    inputs = np.asarray(inputs)
+    if modality == "points" and (inputs.ndim != 3 or inputs.shape[-1] != 3):
+        raise ValueError(f"points: expected (N, M, 3), got {inputs.shape}")
+    if modality == "sketch":
+        inputs = inputs[:, None] if inputs.ndim == 3 else inputs
+        if inputs.ndim != 4 or inputs.shape[1] != 1:
+            raise ValueError(f"sketches: expected (N, 1, H, W), got {inputs.shape}")
+    model.eval()
+    device = next(model.parameters()).device
+    out = []
+    for s in range(0, len(inputs), batch_size):
+        x = _as_tensor(inputs[s : s + batch_size], device)
+        kw = {"points": x} if modality == "points" else {"sketches": x}
+        out.append(model.predict_classes(**kw)[modality].cpu().numpy())
+    n_params = len(model.parameter_names)
+    return np.concatenate(out) if out else np.zeros((0, n_params), dtype=np.int64)
+
+
+def predict(checkpoint: str | Path, points=None, sketches=None, batch_size: int = 64, device: str | None = None) -> dict:
+    """{"names": parameter names, "points": (N, P), "sketch": (N, P)} for the inputs given."""
+    model = load_model(checkpoint)
+    if device:
+        model = model.to(device)
+    result: dict = {"names": list(model.parameter_names)}
+    if points is not None:
+        result["points"] = predict_classes(model, points=points, batch_size=batch_size)
+    if sketches is not None:
+        result["sketch"] = predict_classes(model, sketches=sketches, batch_size=batch_size)
+    return result
