@@ -25,6 +25,7 @@ from geocode.nodes import (
     radial,
     rail,
     rectangle_fillet,
+    sample_curve,
     solidify,
     sweep,
 )
@@ -35,6 +36,10 @@ BODY_RINGS = 40          # path points along the body's height
 PROFILE_RESOLUTION = 5   # fillet points per corner of the body's cross-section
 TUBE_RESOLUTION = 2      # ... of thin parts (handles, rim, band, legs)
 LIP_OVERHANG = 1.04      # the lid is a little wider than the lip it rests on
+# Parts that rest on another overlap it by this much: their contact faces lie within any
+# touching tolerance of each other whatever the wall's shape (a sweep's thin bottom slab
+# cannot hide a leg's end inside the cavity).
+OVERLAP = 2e-4
 KNOTS = ("Base", "Lower", "Belly", "Shoulder", "Neck", "Lip")
 
 
@@ -74,6 +79,12 @@ class _Body:
     def profile(self, resolution=PROFILE_RESOLUTION):
         return rectangle_fillet(self.g, width=2.0, height=2.0,
                                 roundness=self.p["roundness"], resolution=resolution)["Curve"]
+
+    def corner_reach(self):
+        """Distance from the axis to the cross-section's corner, per unit half-width:
+        sqrt(2) for a square, 1 for a circle (corner arc of radius `roundness`)."""
+        g = self.g
+        return g.add(g.mul(g.sub(1.0, self.p["roundness"]), 2 ** 0.5), self.p["roundness"])
 
     def twist_at(self, factor):
         return self.g.mul(self.p["twist"], factor)
@@ -165,10 +176,12 @@ def _body_mesh(body: _Body):
 
 
 def _silhouette(body: _Body):
-    """The body's outline in the XZ plane (x = half-width at azimuth 0): handles attach to it."""
+    """The body's outermost outline in the XZ plane: at each height, the farthest the
+    cross-section reaches in any direction (its corner), so that a handle built on it clears
+    the body at every azimuth and twist."""
     g = body.g
     path = body.path(0.0, body.height, BODY_RINGS)
-    offset = g.combine(body.radius(g.spline_factor()), 0.0, 0.0)
+    offset = g.combine(g.mul(body.radius(g.spline_factor()), body.corner_reach()), 0.0, 0.0)
     return g.node("GeometryNodeSetPosition", {"Geometry": path, "Offset": offset}).out
 
 
@@ -179,9 +192,16 @@ def _tube_profile(g: Graph, roundness=1.0):
 
 def _handles(body: _Body):
     g, p = body.g, body.p
-    curve = handle(g, curve=_silhouette(body), start=p["handle_bottom"], end=p["handle_top"],
-                   reach=p["handle_reach"], peak=p["handle_peak"],
-                   inset=g.mul(p["wall_thickness"], 0.5), resolution=20)["Curve"]
+    silhouette = _silhouette(body)
+    # The ends sit on the outermost outline; sink them to the inner face of the wall at its
+    # nearest azimuth (the flat side): corner excess + half the wall, for the wider end.
+    ends_x = [g.separate(sample_curve(g, curve=silhouette, factor=p[f])["Position"])["X"]
+              for f in ("handle_bottom", "handle_top")]
+    excess = g.sub(1.0, g.div(1.0, body.corner_reach()))
+    inset = g.add(g.mul(g.maximum(*ends_x), excess), g.mul(p["wall_thickness"], 0.5))
+    curve = handle(g, curve=silhouette, start=p["handle_bottom"], end=p["handle_top"],
+                   reach=p["handle_reach"], peak=p["handle_peak"], inset=inset,
+                   resolution=20)["Curve"]
     one = rail(g, curve=curve, profile_curve=_tube_profile(g, p["handle_roundness"]),
                radius=p["handle_thickness"], fill_caps=True, part=HANDLE)["Mesh"]
     copies = radial(g, geometry=one, count=p["handle_count"], radius=0.0)["Geometry"]
@@ -198,8 +218,7 @@ def _ring(body: _Body, factor, size, part):
 
 def _lid(body: _Body):
     g, p = body.g, body.p
-    # sink the lid into the wall a little so that the two overlap
-    bottom = g.sub(body.height, g.mul(p["wall_thickness"], 0.25))
+    bottom = g.sub(body.height, OVERLAP)
     flat_top = g.add(body.height, p["lid_thickness"])
     top = g.add(flat_top, p["lid_dome"])
     path = body.path(bottom, top, 10)
@@ -211,7 +230,7 @@ def _lid(body: _Body):
     scale = g.mul(g.mul(p["lip_width"], LIP_OVERHANG), dome)
     lid = sweep(g, curve=path, profile_curve=body.profile(), scale=scale, fill_caps=True,
                 part=LID)["Mesh"]
-    knob_path = body.path(g.sub(top, 0.005), g.add(top, p["knob_height"]), 8)
+    knob_path = body.path(g.sub(top, OVERLAP), g.add(top, p["knob_height"]), 8)
     knob = middle_expand_contract(
         g, curve=knob_path, profile_curve=_tube_profile(g, p["knob_roundness"]),
         radius=p["knob_size"], amount=0.6, fill_caps=True, part=KNOB)["Mesh"]
@@ -221,8 +240,7 @@ def _lid(body: _Body):
 
 def _pedestal(body: _Body):
     g, p = body.g, body.p
-    top = g.add(p["foot_height"], g.mul(p["wall_thickness"], 0.5))
-    path = body.path(0.0, top, 8)
+    path = body.path(0.0, g.add(p["foot_height"], OVERLAP), 8)
     t = g.spline_factor()
     width = g.lerp(g.mul(p["base_width"], p["foot_width"]), g.mul(p["base_width"], 0.8), t)
     waist = g.sub(1.0, g.mul(0.2, g.math("SINE", g.mul(t, 3.14159265))))
@@ -233,7 +251,7 @@ def _pedestal(body: _Body):
 def _legs(body: _Body):
     g, p = body.g, body.p
     x = g.mul(p["base_width"], 0.6)
-    start = g.combine(x, 0.0, g.add(p["foot_height"], g.mul(p["wall_thickness"], 0.5)))
+    start = g.combine(x, 0.0, g.add(p["foot_height"], OVERLAP))
     end = g.combine(g.add(x, p["leg_splay"]), 0.0, 0.0)
     curve = quadratic_cartesian(g, start=start, end=end,
                                 offset=g.combine(g.mul(p["leg_splay"], 0.3), 0.0, 0.0),
