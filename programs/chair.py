@@ -1,0 +1,366 @@
+"""The chair program (61 parameters: 12 discrete, 49 continuous).
+
+Layout: x = width, y = depth (the backrest at +y), z = up; a 0.5 x 0.5 seat before the
+overall scale. Structure (every part touches the rest for every parameter combination):
+- seat: MeshSeat; its `Corner` (the middle of the rounded corner of the outline) is the
+  anchor of legs, backrest frame and armrests, so they follow the seat's roundness, and
+  they all start inside the seat slab, so they follow its height;
+- cushion: MeshCushion sunk a little into the seat's top;
+- legs: four MeshLegs from under the seat corners to z = 0, or a monoleg (a column with
+  StyleBezierSegment) with optional tent legs (radial MeshQuadraticCartesian);
+- backrest: two frames (MeshQuadraticCartesianAlignedXYFrame, mirrored in x) rising from
+  the seat's back corners; cross rails (MeshCrossRail on SampleCurveArray points of the
+  frame), vertical rails (the frame's path repeated across) or a solid panel (the frame's
+  path swept with a panel profile) span the two frames; a MeshTopRail caps them;
+- armrests: from a point sampled on the frame forward, either a straight bar
+  (MeshStraightFrame) with an optional support (MeshFrameFixedBottom) down into the seat
+  and a pad, or a loop (MeshQuadraticPolarFrame) from the frame down into the seat;
+- the chair is scaled per axis and grounded so that its lowest point lies on z = 0.
+Selectors reach the geometry only through Switch / Index Switch nodes, so visibility rules
+are inferred from the graph.
+"""
+
+from __future__ import annotations
+
+import math
+
+from geocode.nodes import Graph, mirror, radial, rectangle_fillet, sample_curve, \
+    sample_curve_array
+from geocode.nodes.frames import aligned_bevel_xy, bezier_segment_style
+from geocode.nodes.parts import (
+    cross_rail,
+    cushion,
+    frame_fixed_bottom,
+    leg,
+    quadratic_cartesian_aligned_xy_frame,
+    quadratic_cartesian_mesh,
+    quadratic_polar_frame,
+    seat,
+    straight_frame,
+    top_rail,
+)
+
+# part labels (segmentation)
+SEAT, CUSHION, LEGS, BACK_FRAME, CROSS_RAILS, VERTICAL_RAILS, TOP_RAIL, BACK_PANEL, \
+    ARMRESTS, ARM_SUPPORTS, ARM_PADS, MONOLEG, TENT_LEGS = range(1, 14)
+
+SEAT_SIZE = 0.5          # width and depth of the seat before the overall scale
+LEG_INSET = 1.2          # legs sit this many radii inside the seat's corner
+SINK = 0.5               # parts attached under/over a slab start this share inside it
+TENT_HUB = 0.06          # height of the monoleg's foot above the floor with tent legs
+PAD_SINK = 0.3           # share of an armrest pad sunk into its armrest
+ARM_LOOP_BULGE = 0.35    # bulge of a loop armrest, as a share of its chord
+
+
+def _parameters(g: Graph) -> dict:
+    p = {}
+
+    def add(name, kind, default, low, high, description):
+        p[name] = g.input(name, kind, default=default, min=low, max=high,
+                          description=description)
+
+    for axis in "xyz":
+        add(f"scale_{axis}", "float", 1.0, 0.8, 1.25, f"overall scale along {axis}")
+    # seat and cushion
+    add("seat_height", "float", 0.45, 0.35, 0.6, "height of the seat's top")
+    add("seat_thickness", "float", 0.05, 0.03, 0.1, "thickness of the seat slab")
+    add("seat_roundness", "float", 0.2, 0.0, 1.0, "seat outline: 0 square, 1 round")
+    add("seat_bevel", "float", 0.05, 0.0, 0.2, "rounding of the seat's edges")
+    add("cushion", "bool", False, 0, 1, "a pillow on the seat")
+    add("cushion_thickness", "float", 0.05, 0.02, 0.07, "thickness of the pillow")
+    add("cushion_fill", "float", 0.5, 0.0, 1.0, "pillow shape: 0 dome, 1 full")
+    # four legs or a monoleg
+    add("monoleg", "bool", False, 0, 1, "one central column instead of four legs")
+    add("leg_thickness", "float", 0.025, 0.015, 0.04, "half-width of a leg at its top")
+    add("leg_splay", "float", 0.02, 0.0, 0.08, "how far the feet spread outwards")
+    add("leg_taper", "float", 0.8, 0.5, 1.2, "foot width / top width of a leg")
+    add("leg_bevel", "float", 0.0, 0.0, 1.0, "leg profile: 0 square, 1 round")
+    add("leg_curvature", "float", 0.5, 0.0, 1.0, "legs: 0 straight, 1 vertical at the top")
+    add("back_leg_offset", "float", 0.03, 0.0, 0.1, "how far back the back feet reach")
+    add("monoleg_top_radius", "float", 0.06, 0.03, 0.12, "monoleg Bezier profile: top")
+    add("monoleg_top_handle", "float", 0.06, 0.02, 0.2, "monoleg Bezier profile: upper handle")
+    add("monoleg_bottom_handle", "float", 0.1, 0.02, 0.25, "monoleg Bezier profile: lower handle")
+    add("monoleg_bottom_radius", "float", 0.22, 0.12, 0.3, "monoleg Bezier profile: foot")
+    add("tent_legs", "bool", False, 0, 1, "legs spreading from the monoleg's foot")
+    add("tent_leg_count", "int", 4, 3, 6, "number of tent legs")
+    add("tent_leg_spread", "float", 0.3, 0.22, 0.38, "reach of the tent legs")
+    add("tent_leg_thickness", "float", 0.02, 0.012, 0.03, "half-width of a tent leg")
+    # backrest frame
+    add("backrest_height", "float", 0.45, 0.3, 0.6, "height of the backrest above the seat")
+    add("backrest_slant", "float", 0.1, -0.05, 0.35, "backward lean of the backrest")
+    add("backrest_curvature", "float", 0.0, -0.5, 0.5, "backward bow of the backrest")
+    add("back_frame_offset", "float", 0.0, 0.0, 0.5, "frames moved in from the seat corners")
+    add("frame_width", "float", 0.04, 0.02, 0.06, "width of the backrest frames")
+    add("frame_depth", "float", 0.04, 0.02, 0.06, "depth of the backrest frames")
+    add("frame_roundness", "float", 0.0, 0.0, 1.0, "frame profile: 0 square, 1 round")
+    add("rail_bevel", "float", 0.0, 0.0, 0.6, "bevel of the frames' top ends")
+    # backrest filling
+    add("backrest_solid", "bool", False, 0, 1, "a solid panel instead of rails")
+    add("solid_thickness", "float", 0.025, 0.015, 0.04, "thickness of the solid panel")
+    add("vertical_rails", "bool", False, 0, 1, "vertical rails instead of cross rails")
+    add("cross_rail_count", "int", 2, 1, 4, "number of cross rails")
+    add("cross_rail_thickness_y", "float", 0.02, 0.01, 0.03, "cross rail depth")
+    add("cross_rail_thickness_z", "float", 0.04, 0.02, 0.08, "cross rail height")
+    add("cross_rail_bottom_offset", "float", 0.3, 0.1, 0.5, "lowest cross rail (share of frame)")
+    add("cross_rail_top_offset", "float", 0.7, 0.3, 0.9, "highest cross rail (share of frame)")
+    add("cross_rail_roundness", "float", 0.0, 0.0, 1.0, "cross rail profile: square to round")
+    add("vertical_rail_count", "int", 3, 1, 5, "number of vertical rails")
+    add("vertical_rail_size", "float", 0.025, 0.01, 0.04, "width of a vertical rail")
+    add("vertical_rail_roundness", "float", 0.0, 0.0, 1.0, "vertical rail profile")
+    add("top_rail", "bool", True, 0, 1, "a rail across the frames' tops")
+    add("top_rail_size", "float", 0.08, 0.04, 0.14, "height of the top rail")
+    add("top_rail_depth", "float", 0.04, 0.02, 0.06, "depth of the top rail")
+    add("top_rail_roundness", "float", 0.0, 0.0, 1.0, "top rail profile: square to round")
+    add("top_rail_fill", "float", 0.0, 0.0, 0.5, "swelling of the top rail's middle")
+    # armrests
+    add("armrest_style", "int", 0, 0, 2, "armrests: 0 none, 1 straight, 2 loop")
+    add("armrest_support", "bool", True, 0, 1, "a support under a straight armrest")
+    add("armrest_cushion", "bool", False, 0, 1, "a pad on a straight armrest")
+    add("armrest_width", "float", 0.04, 0.02, 0.07, "width of an armrest")
+    add("armrest_height", "float", 0.03, 0.02, 0.05, "height of an armrest's profile")
+    add("armrest_roundness", "float", 0.0, 0.0, 1.0, "armrest profile: square to round")
+    add("armrest_back_height", "float", 0.5, 0.35, 0.8, "attachment on the frame (share)")
+    add("armrest_front_height", "float", 1.0, 0.7, 1.3, "front height / back height")
+    add("armrest_mid", "float", 0.0, -0.6, 0.6, "where a loop armrest bulges (angle)")
+    add("armrest_edge", "float", 0.8, 0.6, 1.0, "front attachment along the seat side")
+    add("armrest_pad_thickness", "float", 0.02, 0.01, 0.03, "thickness of the pad")
+    return p
+
+
+class _Chair:
+    """Quantities shared between parts, so that every attached part follows edits."""
+
+    def __init__(self, g: Graph, p: dict):
+        self.g, self.p = g, p
+        self.seat = seat(g, width=SEAT_SIZE, depth=SEAT_SIZE, roundness=p["seat_roundness"],
+                         top=p["seat_height"], thickness=p["seat_thickness"],
+                         bevel=p["seat_bevel"], part=SEAT)
+        corner = g.separate(self.seat["Corner"])
+        self.corner_x, self.corner_y = corner["X"], corner["Y"]
+        # attachments start inside the slab: halfway down from its top
+        self.inside = g.sub(p["seat_height"], g.mul(p["seat_thickness"], SINK))
+        self.frame_curve, self.frame = self._frame()
+
+    # -- backrest frame -------------------------------------------------------------------
+
+    def frame_x(self):
+        """x of the right frame's axis: inside the seat corner, moved in by the offset."""
+        g, p = self.g, self.p
+        x = g.sub(self.corner_x, g.mul(p["frame_width"], 0.5))
+        return g.mul(x, g.sub(1.0, p["back_frame_offset"]))
+
+    def _frame(self):
+        g, p = self.g, self.p
+        y = g.sub(self.corner_y, g.mul(p["frame_depth"], 0.5))
+        rise = g.add(p["backrest_height"], g.mul(p["seat_thickness"], SINK))
+        bottom = g.combine(self.frame_x(), y, self.inside)
+        top = g.vmath("ADD", bottom, g.combine(0.0, g.mul(p["backrest_slant"], rise), rise))
+        bow = g.combine(0.0, g.mul(p["backrest_curvature"], g.mul(rise, 0.25)), 0.0)
+        frame = quadratic_cartesian_aligned_xy_frame(
+            g, start=bottom, end=top, offset=bow, width=p["frame_width"],
+            depth=p["frame_depth"], roundness=p["frame_roundness"], bevel=p["rail_bevel"],
+            part=BACK_FRAME)
+        return frame["Curve"], frame["Mesh"]
+
+    def frame_sweep(self, width, depth, roundness, part):
+        """The frame's path moved to x = 0 and swept with another profile (panels, rails)."""
+        g = self.g
+        centred = g.transform(self.frame_curve,
+                              translation=g.combine(g.mul(self.frame_x(), -1.0), 0.0, 0.0))
+        profile = rectangle_fillet(g, width=width, height=depth, roundness=roundness,
+                                   resolution=2)["Curve"]
+        return aligned_bevel_xy(g, curve=centred, profile_curve=profile, radius=1.0,
+                                fill_caps=True, part=part)["Mesh"]
+
+
+def _cushion(c: _Chair):
+    g, p = c.g, c.p
+    pillow = cushion(g, width=SEAT_SIZE * 0.97, depth=SEAT_SIZE * 0.97,
+                     roundness=p["seat_roundness"],
+                     bottom=g.sub(p["seat_height"], g.mul(p["seat_thickness"], 0.2)),
+                     thickness=p["cushion_thickness"], fill=p["cushion_fill"], part=CUSHION)
+    return g.switch(p["cushion"], None, pillow["Mesh"], data_type="GEOMETRY")
+
+
+# -- legs -------------------------------------------------------------------------------------
+
+def _four_legs(c: _Chair):
+    """The right front and back legs (the left ones come from the chair's mirror)."""
+    g, p = c.g, c.p
+    inset = g.mul(p["leg_thickness"], LEG_INSET)
+    x, y = g.sub(c.corner_x, inset), g.sub(c.corner_y, inset)
+    splay = p["leg_splay"]
+    feet = {"front": g.combine(g.add(x, splay), g.sub(g.mul(y, -1.0), splay), 0.0),
+            "back": g.combine(g.add(x, splay), g.add(g.add(y, splay), p["back_leg_offset"]),
+                              0.0)}
+    tops = {"front": g.combine(x, g.mul(y, -1.0), c.inside), "back": g.combine(x, y, c.inside)}
+    legs = [leg(g, top=tops[k], bottom=feet[k], curvature=p["leg_curvature"],
+                top_radius=p["leg_thickness"],
+                bottom_radius=g.mul(p["leg_thickness"], p["leg_taper"]),
+                roundness=p["leg_bevel"], part=LEGS)["Mesh"] for k in ("front", "back")]
+    return g.join(legs)
+
+
+def _monoleg(c: _Chair):
+    """A column under the seat's centre whose silhouette is a Bezier profile; with tent
+    legs its foot is lifted and the legs, joined into it, carry the chair."""
+    g, p = c.g, c.p
+    foot = g.switch(p["tent_legs"], 0.0, TENT_HUB, data_type="FLOAT")
+    path = g.node("GeometryNodeResampleCurve", {
+        "Curve": g.node("GeometryNodeCurvePrimitiveLine", {
+            "Start": g.combine(0.0, 0.0, c.inside), "End": g.combine(0.0, 0.0, foot)}),
+        "Mode": "Count", "Count": 12}).out
+    profile = rectangle_fillet(g, width=2.0, height=2.0, roundness=1.0,
+                               resolution=3)["Curve"]
+    column = bezier_segment_style(
+        g, curve=path, profile_curve=profile, start=p["monoleg_top_radius"],
+        start_handle=p["monoleg_top_handle"], end_handle=p["monoleg_bottom_handle"],
+        end=p["monoleg_bottom_radius"], fill_caps=True, part=MONOLEG)["Mesh"]
+    return g.join([column, g.switch(p["tent_legs"], None, _tent_legs(c, foot),
+                                    data_type="GEOMETRY")])
+
+
+def _tent_legs(c: _Chair, foot):
+    g, p = c.g, c.p
+    hub = g.combine(0.0, 0.0, g.add(foot, 0.03))
+    toe = g.combine(p["tent_leg_spread"], 0.0, 0.0)
+    # the middle control point above the toe: the leg stands vertically on the floor
+    offset = g.combine(g.mul(p["tent_leg_spread"], 0.5), 0.0, 0.0)
+    one = quadratic_cartesian_mesh(g, start=hub, end=toe, offset=offset,
+                                   radius=p["tent_leg_thickness"], roundness=1.0,
+                                   axis=(0.0, 1.0, 0.0), part=TENT_LEGS)["Mesh"]
+    # one leg always points backwards (+y), under the backrest
+    return radial(g, geometry=one, count=p["tent_leg_count"], radius=0.0,
+                  start_angle=math.pi / 2)["Geometry"]
+
+
+# -- backrest -------------------------------------------------------------------------------
+
+def _cross_rails(c: _Chair):
+    g, p = c.g, c.p
+    points = sample_curve_array(g, curve=c.frame_curve, count=p["cross_rail_count"],
+                                start_margin=p["cross_rail_bottom_offset"],
+                                end_margin=g.sub(1.0, p["cross_rail_top_offset"]))["Points"]
+    return cross_rail(g, points=points, half_length=c.frame_x(),
+                      thickness_y=p["cross_rail_thickness_y"],
+                      thickness_z=p["cross_rail_thickness_z"],
+                      roundness=p["cross_rail_roundness"], part=CROSS_RAILS)["Mesh"]
+
+
+def _vertical_rails(c: _Chair):
+    """Copies of the frame's path spread evenly between the two frames."""
+    g, p = c.g, c.p
+    one = c.frame_sweep(p["vertical_rail_size"], g.mul(p["frame_depth"], 0.6),
+                        p["vertical_rail_roundness"], VERTICAL_RAILS)
+    x = c.frame_x()
+    across = g.node("GeometryNodeCurvePrimitiveLine", {
+        "Start": g.combine(g.mul(x, -1.0), 0.0, 0.0), "End": g.combine(x, 0.0, 0.0)}).out
+    margin = g.div(1.0, g.add(p["vertical_rail_count"], 1.0))
+    points = sample_curve_array(g, curve=across, count=p["vertical_rail_count"],
+                                start_margin=margin, end_margin=margin)["Points"]
+    rails = g.node("GeometryNodeInstanceOnPoints", {"Points": points, "Instance": one})
+    return g.node("GeometryNodeRealizeInstances", {"Geometry": rails}).out
+
+
+def _top_rail(c: _Chair):
+    g, p = c.g, c.p
+    end = sample_curve(g, curve=c.frame_curve, factor=1.0)
+    mesh = top_rail(g, center=end["Position"], tangent=end["Tangent"],
+                    half_length=g.add(c.frame_x(), g.mul(p["frame_width"], 0.5)),
+                    size=p["top_rail_size"], depth=p["top_rail_depth"],
+                    roundness=p["top_rail_roundness"], fill=p["top_rail_fill"],
+                    part=TOP_RAIL)["Mesh"]
+    return g.switch(p["top_rail"], None, mesh, data_type="GEOMETRY")
+
+
+def _backrest(c: _Chair):
+    g, p = c.g, c.p
+    rails = g.switch(p["vertical_rails"], _cross_rails(c), _vertical_rails(c),
+                     data_type="GEOMETRY")
+    open_back = g.join([rails, _top_rail(c)])
+    panel = c.frame_sweep(g.mul(c.frame_x(), 2.0), p["solid_thickness"], 0.0, BACK_PANEL)
+    return g.switch(p["backrest_solid"], open_back, panel, data_type="GEOMETRY")
+
+
+# -- armrests -------------------------------------------------------------------------------
+
+class _Arm:
+    """The right armrest's attachment points: on the frame, and over/on the seat."""
+
+    def __init__(self, c: _Chair):
+        g, p = c.g, c.p
+        self.x = c.frame_x()
+        self.back = sample_curve(g, curve=c.frame_curve,
+                                 factor=p["armrest_back_height"])["Position"]
+        back_y = g.separate(self.back)["Y"]
+        # between the back corner (edge 0) and the mirrored front corner (edge 1): the
+        # segment lies inside the (convex, symmetric) seat for every roundness
+        corner_y = g.sub(c.corner_y, g.mul(p["frame_depth"], 0.5))
+        self.front_y = g.lerp(corner_y, g.mul(corner_y, -1.0), p["armrest_edge"])
+        self.back_y = back_y
+        self.seat_point = g.combine(self.x, self.front_y, c.inside)
+
+
+def _straight_arm(c: _Chair, arm: _Arm):
+    g, p = c.g, c.p
+    rise = g.sub(g.separate(arm.back)["Z"], p["seat_height"])
+    front = g.combine(arm.x, arm.front_y,
+                      g.add(p["seat_height"], g.mul(rise, p["armrest_front_height"])))
+    bar = straight_frame(g, start=arm.back, end=front, width=p["armrest_width"],
+                         depth=p["armrest_height"], roundness=p["armrest_roundness"],
+                         part=ARMRESTS)["Mesh"]
+    support = frame_fixed_bottom(g, bottom=arm.seat_point, top=front, curvature=1.0,
+                                 width=g.mul(p["armrest_width"], 0.6),
+                                 depth=g.mul(p["armrest_width"], 0.6),
+                                 roundness=p["armrest_roundness"], part=ARM_SUPPORTS)["Mesh"]
+    lift = g.combine(0.0, 0.0, g.mul(g.add(p["armrest_height"], p["armrest_pad_thickness"]),
+                                     0.5 - PAD_SINK))
+    pad = straight_frame(g, start=g.vmath("ADD", arm.back, lift),
+                         end=g.vmath("ADD", front, lift),
+                         width=g.mul(p["armrest_width"], 1.2),
+                         depth=p["armrest_pad_thickness"], roundness=1.0,
+                         part=ARM_PADS)["Mesh"]
+    return g.join([bar, g.switch(p["armrest_support"], None, support, data_type="GEOMETRY"),
+                   g.switch(p["armrest_cushion"], None, pad, data_type="GEOMETRY")])
+
+
+def _loop_arm(c: _Chair, arm: _Arm):
+    """A curve from the frame forward and down into the seat. QuadraticPolar bends in the
+    XZ plane, so the arm is built turned by -90 degrees about Z and turned back."""
+    g, p = c.g, c.p
+
+    def to_local(point):  # world (x, y, z) -> local (y, -x, z)
+        xyz = g.separate(point)
+        return g.combine(xyz["Y"], g.mul(xyz["X"], -1.0), xyz["Z"])
+
+    start, end = to_local(arm.back), to_local(arm.seat_point)
+    chord = g.vmath("DISTANCE", start, end)
+    loop = quadratic_polar_frame(g, start=start, end=end, angle=p["armrest_mid"],
+                                 distance=g.mul(chord, ARM_LOOP_BULGE),
+                                 width=p["armrest_width"], depth=p["armrest_height"],
+                                 roundness=p["armrest_roundness"], axis=(0.0, -1.0, 0.0),
+                                 part=ARMRESTS)["Mesh"]
+    return g.transform(loop, rotation=(0.0, 0.0, math.pi / 2))
+
+
+def _armrests(c: _Chair):
+    arm = _Arm(c)
+    return c.g.index_switch(c.p["armrest_style"], [None, _straight_arm(c, arm),
+                                                   _loop_arm(c, arm)], data_type="GEOMETRY")
+
+
+# -- assembly -------------------------------------------------------------------------------
+
+def build(g: Graph) -> None:
+    p = _parameters(g)
+    c = _Chair(g, p)
+    legs = g.switch(p["monoleg"], _four_legs(c), None, data_type="GEOMETRY")
+    right = g.join([legs, c.frame, _armrests(c)])
+    chair = g.join([c.seat["Mesh"], _cushion(c), mirror(g, geometry=right, axis=0)["Geometry"],
+                    g.switch(p["monoleg"], None, _monoleg(c), data_type="GEOMETRY"),
+                    _backrest(c)])
+    scaled = g.transform(chair, scale=g.combine(p["scale_x"], p["scale_y"], p["scale_z"]))
+    # ground it: whatever the parts, the lowest point rests on z = 0
+    lowest = g.separate(g.node("GeometryNodeBoundBox", {"Geometry": scaled})["Min"])["Z"]
+    g.output("Geometry", "geometry",
+             g.transform(scaled, translation=g.combine(0.0, 0.0, g.mul(lowest, -1.0))))

@@ -1,0 +1,259 @@
+"""Meshes: ready-made triplets (path curve + RectangleFillet profile + style -> mesh), the
+parts that furniture programs are assembled from (SPEC §1 catalogue, "meshes").
+
+Profiles are given in absolute sizes (`Width` along the profile's X, `Depth` along its Y),
+so styles scale by 1 at rest. Every block labels its faces with `Part` and, where other
+parts attach to it, also returns its path `Curve` (sample it for attachment points).
+"""
+
+from __future__ import annotations
+
+import math
+
+from geocode.nodes.curves import quadratic_cartesian, quadratic_polar
+from geocode.nodes.frames import aligned_bevel_xy, cushion as cushion_style, fixed_bottom, \
+    fixed_top, seat_frame
+from geocode.nodes.graph import Graph
+from geocode.nodes.group import node_group
+from geocode.nodes.profiles import rectangle_fillet
+from geocode.nodes.styles import leg as leg_style
+from geocode.nodes.styles import middle_expand_contract, rail
+from geocode.nodes.utils import align_curve_tilt_to_axis
+
+# fillet points per profile corner: small parts need few, the seat is seen up close
+THIN_RESOLUTION = 2
+SEAT_RESOLUTION = 6
+# the rectangle's corner moves in by r (1 - 1/sqrt 2) when rounded with radius r
+_CORNER_INSET = 1.0 - 1.0 / math.sqrt(2.0)
+# the fillet radius of RectangleFillet never leaves this range (see profiles.py)
+_ROUNDNESS_RANGE = (1e-3, 0.995)
+
+
+def _line(g: Graph, start, end, points: int):
+    """Straight path with `points` evenly spaced points."""
+    line = g.node("GeometryNodeCurvePrimitiveLine", {"Start": start, "End": end})
+    return g.node("GeometryNodeResampleCurve", {"Curve": line, "Mode": "Count",
+                                                "Count": points}).out
+
+
+def _vertical_path(g: Graph, bottom, top, points: int):
+    """Vertical path on the Z axis from z=bottom to z=top, the profile's X on world X."""
+    path = _line(g, g.combine(0.0, 0.0, bottom), g.combine(0.0, 0.0, top), points)
+    return align_curve_tilt_to_axis(g, curve=path, axis=(1.0, 0.0, 0.0))["Curve"]
+
+
+def _profile(g: Graph, width, depth, roundness, resolution=THIN_RESOLUTION):
+    return rectangle_fillet(g, width=width, height=depth, roundness=roundness,
+                            resolution=resolution)["Curve"]
+
+
+def _frame_inputs(g: Graph):
+    """Profile and style inputs shared by the frame meshes."""
+    width = g.input("Width", "float", default=0.04, min=0.0)
+    depth = g.input("Depth", "float", default=0.04, min=0.0)
+    roundness = g.input("Roundness", "float", default=0.0, min=0.0, max=1.0)
+    bevel = g.input("Bevel", "float", default=0.0, min=0.0, max=0.9)
+    axis = g.input("Axis", "vector", default=(1, 0, 0))
+    part = g.input("Part", "int", default=0, min=0)
+    return width, depth, roundness, bevel, axis, part
+
+
+def _frame_mesh(g: Graph, curve, inputs):
+    width, depth, roundness, bevel, axis, part = inputs
+    return aligned_bevel_xy(g, curve=curve, profile_curve=_profile(g, width, depth, roundness),
+                            axis=axis, radius=1.0, bevel=bevel, fill_caps=True,
+                            part=part)["Mesh"]
+
+
+@node_group("MeshSeat")
+def seat(g: Graph) -> None:
+    """A seat slab: a `Width` x `Depth` RectangleFillet (corners rounded by `Roundness`,
+    a disc/ellipse at 1) swept from z = Top - Thickness up to `Top` with StyleSeatFrame.
+
+    `Corner` is the attachment point of the +X+Y corner on the outline (z = 0): the
+    middle of the rounded corner, which moves inwards as the seat gets rounder, so legs
+    and frames placed from it follow the outline."""
+    width = g.input("Width", "float", default=0.5, min=0.0)
+    depth = g.input("Depth", "float", default=0.5, min=0.0)
+    roundness = g.input("Roundness", "float", default=0.0, min=0.0, max=1.0)
+    top = g.input("Top", "float", default=0.45)
+    thickness = g.input("Thickness", "float", default=0.05, min=0.0)
+    bevel = g.input("Bevel", "float", default=0.05, min=0.0, max=0.5)
+    part = g.input("Part", "int", default=0, min=0)
+    path = _vertical_path(g, g.sub(top, thickness), top, 7)
+    profile = _profile(g, width, depth, roundness, SEAT_RESOLUTION)
+    mesh = seat_frame(g, curve=path, profile_curve=profile, bevel=bevel, fill_caps=True,
+                      part=part)["Mesh"]
+    g.output("Mesh", "geometry", mesh)
+    clamped = g.node("ShaderNodeClamp", {"Value": roundness, "Min": _ROUNDNESS_RANGE[0],
+                                         "Max": _ROUNDNESS_RANGE[1]}).out
+    inset = g.mul(g.mul(clamped, g.mul(g.minimum(width, depth), 0.5)), _CORNER_INSET)
+    g.output("Corner", "vector", g.combine(g.sub(g.mul(width, 0.5), inset),
+                                           g.sub(g.mul(depth, 0.5), inset), 0.0))
+
+
+@node_group("MeshCushion")
+def cushion(g: Graph) -> None:
+    """A pillow on a seat: the seat's outline (`Width`, `Depth`, `Roundness`) swept up from
+    `Bottom` by `Thickness` with StyleCushion (`Fill`: dome to full pillow)."""
+    width = g.input("Width", "float", default=0.5, min=0.0)
+    depth = g.input("Depth", "float", default=0.5, min=0.0)
+    roundness = g.input("Roundness", "float", default=0.0, min=0.0, max=1.0)
+    bottom = g.input("Bottom", "float", default=0.45)
+    thickness = g.input("Thickness", "float", default=0.05, min=0.0)
+    fill = g.input("Fill", "float", default=0.5, min=0.0, max=1.0)
+    part = g.input("Part", "int", default=0, min=0)
+    path = _vertical_path(g, bottom, g.add(bottom, thickness), 8)
+    profile = _profile(g, width, depth, roundness, SEAT_RESOLUTION)
+    mesh = cushion_style(g, curve=path, profile_curve=profile, fill=fill, fill_caps=True,
+                         part=part)["Mesh"]
+    g.output("Mesh", "geometry", mesh)
+
+
+@node_group("MeshLeg")
+def leg(g: Graph) -> None:
+    """A leg hanging from `Top` to `Bottom` on a CurveFixedTop (`Curvature` 1: vertical
+    under the seat, bending out towards the foot), StyleLeg from `Top Radius` to
+    `Bottom Radius`, a square-to-round profile (`Roundness`) with its X on world X."""
+    top = g.input("Top", "vector", default=(0, 0, 0.45))
+    bottom = g.input("Bottom", "vector", default=(0, 0, 0))
+    curvature = g.input("Curvature", "float", default=1.0, min=0.0, max=1.0)
+    top_radius = g.input("Top Radius", "float", default=0.025, min=0.0)
+    bottom_radius = g.input("Bottom Radius", "float", default=0.02, min=0.0)
+    roundness = g.input("Roundness", "float", default=0.0, min=0.0, max=1.0)
+    part = g.input("Part", "int", default=0, min=0)
+    curve = fixed_top(g, top=top, bottom=bottom, curvature=curvature, resolution=8)["Curve"]
+    aligned = align_curve_tilt_to_axis(g, curve=curve, axis=(1.0, 0.0, 0.0))["Curve"]
+    mesh = leg_style(g, curve=aligned, profile_curve=_profile(g, 2.0, 2.0, roundness),
+                     top_radius=top_radius, bottom_radius=bottom_radius, fill_caps=True,
+                     part=part)["Mesh"]
+    g.output("Mesh", "geometry", mesh)
+
+
+@node_group("MeshStraightFrame")
+def straight_frame(g: Graph) -> None:
+    """A straight bar from `Start` to `End`: `Width` x `Depth` profile (X on world `Axis`),
+    StyleAlignedBevelXY (the end at `End` bevelled by `Bevel`)."""
+    start = g.input("Start", "vector", default=(0, 0, 0))
+    end = g.input("End", "vector", default=(0, 0, 1))
+    inputs = _frame_inputs(g)
+    curve = _line(g, start, end, 4)
+    g.output("Mesh", "geometry", _frame_mesh(g, curve, inputs))
+    g.output("Curve", "geometry", curve)
+
+
+@node_group("MeshQuadraticCartesianAlignedXYFrame")
+def quadratic_cartesian_aligned_xy_frame(g: Graph) -> None:
+    """A bent frame on a CurveQuadraticCartesian (`Start`, `End`, middle control point
+    moved by `Offset`), profile X kept on world `Axis` (StyleAlignedBevelXY)."""
+    start = g.input("Start", "vector", default=(0, 0, 0))
+    end = g.input("End", "vector", default=(0, 0, 1))
+    offset = g.input("Offset", "vector", default=(0, 0.1, 0))
+    inputs = _frame_inputs(g)
+    curve = quadratic_cartesian(g, start=start, end=end, offset=offset,
+                                resolution=12)["Curve"]
+    g.output("Mesh", "geometry", _frame_mesh(g, curve, inputs))
+    g.output("Curve", "geometry", curve)
+
+
+@node_group("MeshQuadraticPolarFrame")
+def quadratic_polar_frame(g: Graph) -> None:
+    """A frame on a CurveQuadraticPolar (`Start`, `End`, bulge `Distance` at `Angle` in
+    the XZ plane), profile X kept on world `Axis` (StyleAlignedBevelXY)."""
+    start = g.input("Start", "vector", default=(0, 0, 0))
+    end = g.input("End", "vector", default=(0, 0, 1))
+    angle = g.input("Angle", "float", default=0.0, min=-math.pi, max=math.pi)
+    distance = g.input("Distance", "float", default=0.1, min=0.0)
+    inputs = _frame_inputs(g)
+    curve = quadratic_polar(g, start=start, end=end, angle=angle, distance=distance,
+                            resolution=12)["Curve"]
+    g.output("Mesh", "geometry", _frame_mesh(g, curve, inputs))
+    g.output("Curve", "geometry", curve)
+
+
+@node_group("MeshFrameFixedBottom")
+def frame_fixed_bottom(g: Graph) -> None:
+    """A frame standing on `Bottom` (CurveFixedBottom: vertical there at `Curvature` 1)
+    and leaning over to `Top`; profile X kept on world `Axis` (StyleAlignedBevelXY)."""
+    bottom = g.input("Bottom", "vector", default=(0, 0, 0))
+    top = g.input("Top", "vector", default=(0, 0.1, 1))
+    curvature = g.input("Curvature", "float", default=1.0, min=0.0, max=1.0)
+    inputs = _frame_inputs(g)
+    curve = fixed_bottom(g, bottom=bottom, top=top, curvature=curvature,
+                         resolution=8)["Curve"]
+    g.output("Mesh", "geometry", _frame_mesh(g, curve, inputs))
+    g.output("Curve", "geometry", curve)
+
+
+@node_group("MeshQuadraticCartesian")
+def quadratic_cartesian_mesh(g: Graph) -> None:
+    """A tube on a CurveQuadraticCartesian (`Start`, `End`, `Offset`) with StyleRail:
+    a square-to-round (`Roundness`) profile of half-size `Radius`, X kept on `Axis`."""
+    start = g.input("Start", "vector", default=(0, 0, 1))
+    end = g.input("End", "vector", default=(1, 0, 0))
+    offset = g.input("Offset", "vector", default=(0.3, 0, 0))
+    radius = g.input("Radius", "float", default=0.02, min=0.0)
+    roundness = g.input("Roundness", "float", default=1.0, min=0.0, max=1.0)
+    axis = g.input("Axis", "vector", default=(0, 1, 0))
+    part = g.input("Part", "int", default=0, min=0)
+    curve = quadratic_cartesian(g, start=start, end=end, offset=offset, resolution=8)["Curve"]
+    aligned = align_curve_tilt_to_axis(g, curve=curve, axis=axis)["Curve"]
+    mesh = rail(g, curve=aligned, profile_curve=_profile(g, 2.0, 2.0, roundness),
+                radius=radius, fill_caps=True, part=part)["Mesh"]
+    g.output("Mesh", "geometry", mesh)
+
+
+def _bar_along_x(g: Graph, half_length, points: int):
+    return _line(g, g.combine(g.mul(half_length, -1.0), 0.0, 0.0),
+                 g.combine(half_length, 0.0, 0.0), points)
+
+
+@node_group("MeshTopRail")
+def top_rail(g: Graph) -> None:
+    """A rail along X centred on `Center` (x ignored), reaching `Half Length` to both sides
+    (over a mirrored pair of frames): profile `Size` along `Tangent` (the frames' direction
+    at the attachment) by `Depth`, StyleMiddleExpandContract swelling its middle by
+    `Fill`."""
+    center = g.input("Center", "vector", default=(0, 0, 1))
+    tangent = g.input("Tangent", "vector", default=(0, 0, 1))
+    half_length = g.input("Half Length", "float", default=0.25, min=0.0)
+    size = g.input("Size", "float", default=0.08, min=0.0)
+    depth = g.input("Depth", "float", default=0.03, min=0.0)
+    roundness = g.input("Roundness", "float", default=0.0, min=0.0, max=1.0)
+    fill = g.input("Fill", "float", default=0.0, min=0.0, max=1.0)
+    part = g.input("Part", "int", default=0, min=0)
+    centre = g.separate(center)
+    bar = g.transform(_bar_along_x(g, half_length, 9),
+                      translation=g.combine(0.0, centre["Y"], centre["Z"]))
+    aligned = align_curve_tilt_to_axis(g, curve=bar, axis=tangent)["Curve"]
+    mesh = middle_expand_contract(g, curve=aligned,
+                                  profile_curve=_profile(g, size, depth, roundness),
+                                  radius=1.0, amount=fill, fill_caps=True, part=part)["Mesh"]
+    g.output("Mesh", "geometry", mesh)
+
+
+@node_group("MeshCrossRail")
+def cross_rail(g: Graph) -> None:
+    """One rail along X through each of `Points` (x ignored; e.g. SampleCurveArray on the
+    right frame of a mirrored pair), reaching `Half Length` to both sides; the profile
+    (`Thickness Z` along the frame, `Thickness Y` across it) is turned so that its Z
+    follows each point's stored `tangent` (the frame's direction there)."""
+    points = g.input("Points", "geometry")
+    half_length = g.input("Half Length", "float", default=0.25, min=0.0)
+    thickness_y = g.input("Thickness Y", "float", default=0.02, min=0.0)
+    thickness_z = g.input("Thickness Z", "float", default=0.04, min=0.0)
+    roundness = g.input("Roundness", "float", default=0.0, min=0.0, max=1.0)
+    part = g.input("Part", "int", default=0, min=0)
+    bar = align_curve_tilt_to_axis(g, curve=_bar_along_x(g, half_length, 2),
+                                   axis=(0.0, 0.0, 1.0))["Curve"]
+    one = rail(g, curve=bar, profile_curve=_profile(g, thickness_z, thickness_y, roundness),
+               radius=1.0, fill_caps=True, part=part)["Mesh"]
+    centred = g.node("GeometryNodeSetPosition", {
+        "Geometry": points, "Position": g.vmath("MULTIPLY", g.position(), (0.0, 1.0, 1.0))})
+    tangent = g.node("GeometryNodeInputNamedAttribute", {"Name": "tangent"},
+                     data_type="FLOAT_VECTOR")["Attribute"]
+    turn = g.node("FunctionNodeAlignRotationToVector", {"Vector": tangent},
+                  axis="Z", pivot_axis="X").out
+    rails = g.node("GeometryNodeInstanceOnPoints", {
+        "Points": centred, "Instance": one, "Rotation": turn})
+    g.output("Mesh", "geometry", g.node("GeometryNodeRealizeInstances", {"Geometry": rails}))
