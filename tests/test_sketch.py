@@ -118,3 +118,11 @@ def test_sketch_shard_without_a_mesh_leaves_no_done_file(tmp_path):
     with pytest.raises(ValueError, match="train-000009"):
         sketch.sketch_shard(tmp_path, 0, CAMS[:1])
     assert not (tmp_path / "done" / "sketch-0.txt").exists()
+
+
+def test_renderer_survives_a_factory_reset(tmp_path):
+    import bpy
+
+    a = _render(_cube(), tmp_path, CAMS[0])
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    assert _render(_cube(), tmp_path, CAMS[0]) == a

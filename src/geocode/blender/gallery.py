@@ -98,6 +98,12 @@ class ShadedRenderer:
         cam.rotation_mode = "QUATERNION"
         cam.rotation_quaternion = (-loc).to_track_quat("-Z", "Y")
 
+    def alive(self) -> bool:
+        try:
+            return self.scene.name in self.bpy.data.scenes
+        except ReferenceError:
+            return False
+
     def set_mesh(self, mesh) -> None:
         set_mesh_data(self.mesh, mesh.vertices, mesh.faces)
         parts = np.asarray(mesh.metadata.get("part", np.zeros(len(mesh.faces))), dtype=int)
@@ -126,7 +132,7 @@ _RENDERER: ShadedRenderer | None = None
 
 def shaded_renderer() -> ShadedRenderer:
     global _RENDERER
-    if _RENDERER is None:
+    if _RENDERER is None or not _RENDERER.alive():
         _RENDERER = ShadedRenderer()
     return _RENDERER
 

@@ -198,6 +198,13 @@ class SketchRenderer:
         self.scene.camera = cam
         return cam
 
+    def alive(self) -> bool:
+        """False once a factory reset (e.g. between tests) has removed our scene."""
+        try:
+            return self.scene.name in self.bpy.data.scenes
+        except ReferenceError:
+            return False
+
     def set_mesh(self, vertices: np.ndarray, faces: np.ndarray) -> None:
         set_mesh_data(self.mesh, vertices, faces)
 
@@ -231,7 +238,7 @@ _RENDERERS: dict[tuple, SketchRenderer] = {}
 def renderer(size: int = 224, line_thickness: float = 1.0) -> SketchRenderer:
     """The process's renderer for these settings (built on first use, then reused)."""
     key = (size, line_thickness)
-    if key not in _RENDERERS:
+    if key not in _RENDERERS or not _RENDERERS[key].alive():
         _RENDERERS[key] = SketchRenderer(size, line_thickness)
     return _RENDERERS[key]
 
