@@ -1,0 +1,145 @@
+"""geocode.data on a tiny synthetic dataset written in the design.md layout.
+
+`make_dataset` writes a test double of a built program (manifest + recipe) and of a
+generated dataset (recipes.parquet, points/*.npz, sketches/*.png): no Blender involved.
+"""
+
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+import torch
+from PIL import Image
+
+from geocode.data import (
+    GeoCodeDataModule,
+    ShapeItems,
+    SketchAugment,
+    eval_cloud,
+    load_sketch,
+    load_split,
+)
+from geocode.recipe import load_manifest, Recipe
+
+DOMAIN = "toy"
+CAMERAS = ["az35", "az55"]
+N_FPS, N_RANDOM, N_PICK = 64, 48, 32
+MANIFEST = {
+    "domain": DOMAIN,
+    "parameters": [
+        {"name": "height", "kind": "float", "min": 0.5, "max": 1.5, "default": 1.0, "visible_if": None},
+        {"name": "has_handle", "kind": "bool", "min": 0, "max": 1, "default": 0, "visible_if": None},
+        {"name": "handle_size", "kind": "float", "min": 0.0, "max": 0.3, "default": 0.1,
+         "visible_if": "has_handle"},
+        {"name": "legs", "kind": "int", "min": 0, "max": 2, "default": 1, "visible_if": None},
+    ],
+}
+RECIPE = """\
+parameters:
+  height: {min: 0.5, max: 1.5, samples: 3}
+  has_handle: {min: 0, max: 1}
+  handle_size: {min: 0.0, max: 0.3, samples: 2}
+  legs: {min: 0, max: 2}
+"""
+
+
+def make_dataset(root, sizes=None, seed=0):
+    """Write build/programs/toy.manifest.json, programs/toy.yaml and data/toy/<split>/...;
+    return (data_root, build_root, recipe_path)."""
+    sizes = sizes or {"train": 10, "val": 4}
+    rng = np.random.default_rng(seed)
+    build = root / "build"
+    (build / "programs").mkdir(parents=True)
+    manifest = build / "programs" / f"{DOMAIN}.manifest.json"
+    manifest.write_text(json.dumps(MANIFEST))
+    recipe_path = root / "programs" / f"{DOMAIN}.yaml"
+    recipe_path.parent.mkdir()
+    recipe_path.write_text(RECIPE)
+    for split, n in sizes.items():
+        d = root / "data" / DOMAIN / split
+        for sub in ("points", "sketches"):
+            (d / sub).mkdir(parents=True)
+        ids = [f"{split}-{i:06d}" for i in range(n)]
+        frame = pd.DataFrame({
+            "id": ids, "shard": 0, "forced": "height", "forced_class": 0,
+            "height": rng.choice([0.5, 1.0, 1.5], n), "has_handle": rng.integers(0, 2, n).astype(float),
+            "handle_size": rng.choice([0.0, 0.3], n), "legs": rng.integers(0, 3, n).astype(float),
+        })
+        frame.to_parquet(d / "recipes.parquet")
+        for i in ids:
+            np.savez(d / "points" / f"{i}.npz", fps=rng.normal(size=(N_FPS, 3)).astype(np.float32),
+                     random=rng.normal(size=(N_RANDOM, 3)).astype(np.float32))
+            for cam in CAMERAS:
+                img = np.full((224, 224), 255, np.uint8)
+                img[rng.integers(20, 200), 10:200] = 0  # one black stroke
+                Image.fromarray(img, "L").save(d / "sketches" / f"{i}_{cam}.png")
+    return root / "data", build, recipe_path
+
+
+@pytest.fixture
+def dataset(tmp_path):
+    data, build, recipe_path = make_dataset(tmp_path)
+    parameters, visibility = load_manifest(build / "programs" / f"{DOMAIN}.manifest.json")
+    return data / DOMAIN, Recipe.load(recipe_path, parameters, visibility)
+
+
+def test_load_split_labels_and_arrays(dataset):
+    root, recipe = dataset
+    split = load_split(root / "train", recipe, CAMERAS)
+    frame = pd.read_parquet(root / "train" / "recipes.parquet")
+    assert split.fps.shape == (10, N_FPS, 3) and split.random.shape == (10, N_RANDOM, 3)
+    assert split.sketches["az55"].shape == (10, 224, 224) and split.sketches["az55"].dtype == np.uint8
+    assert split.labels.dtype == np.int64 and split.labels.shape == (10, 4)
+    hidden = frame["has_handle"].to_numpy() == 0
+    assert (split.labels[hidden, 2] == recipe["handle_size"].existence_class).all()
+    assert (split.labels[~hidden, 2] < 2).all()
+    np.testing.assert_array_equal(split.labels[:, 0], np.rint((frame["height"] - 0.5) / 0.5))
+
+
+def test_items_train_draws_fresh_eval_fixed(dataset):
+    root, recipe = dataset
+    split = load_split(root / "val", recipe, CAMERAS[:1])
+    ev = ShapeItems(split, N_PICK, CAMERAS[:1], train=False)
+    a, b = ev[1], ev[1]
+    assert a["points"].shape == (N_FPS + N_PICK, 3) and a["sketch"].shape == (1, 224, 224)
+    assert torch.equal(a["points"], b["points"]) and torch.equal(a["sketch"], b["sketch"])
+    clouds = {"fps": split.fps[1], "random": split.random[1]}
+    np.testing.assert_array_equal(a["points"].numpy(), eval_cloud(clouds, N_PICK, split.ids[1]))
+    tr = ShapeItems(load_split(root / "train", recipe, CAMERAS), N_PICK, CAMERAS, train=True,
+                    augment=SketchAugment(0, 0, 0))
+    torch.manual_seed(0)
+    draws = [tr[0]["points"] for _ in range(3)]
+    assert not torch.equal(draws[0], draws[1]) or not torch.equal(draws[1], draws[2])
+    assert torch.equal(draws[0][:N_FPS], torch.from_numpy(tr.data.fps[0]))
+    assert a["labels"].dtype == torch.int64
+
+
+def test_sketch_augmentation():
+    x = torch.ones(1, 9, 9)
+    x[0, 4, 2] = 0.0  # one dark pixel
+    assert SketchAugment(flip=1, dilate=0, erode=0)(x)[0, 4, 6] == 0
+    thick = SketchAugment(flip=0, dilate=1, erode=0)(x)
+    assert (thick[0, 3:6, 1:4] == 0).all() and thick.sum() == 81 - 9
+    thin = SketchAugment(flip=0, dilate=0, erode=1)(thick)
+    assert thin.sum() == 81 - 1 and thin[0, 4, 2] == 0
+
+
+def test_load_sketch_and_errors(dataset, tmp_path):
+    root, _ = dataset
+    s = load_sketch(root / "train" / "sketches" / "train-000000_az35.png")
+    assert s.shape == (1, 224, 224) and s.dtype == np.float32 and s.max() == 1.0 and s.min() == 0.0
+    with pytest.raises(ValueError, match="nothere.png"):
+        load_sketch(tmp_path / "nothere.png")
+
+
+def test_datamodule_batches(dataset):
+    root, recipe = dataset
+    dm = GeoCodeDataModule(root, recipe, CAMERAS, n_random=N_PICK, batch_size=4)
+    dm.setup("fit")
+    batch = next(iter(dm.train_dataloader()))
+    assert batch["points"].shape == (4, N_FPS + N_PICK, 3) and batch["sketch"].shape == (4, 1, 224, 224)
+    assert batch["labels"].shape == (4, 4) and batch["labels"].dtype == torch.int64
+    assert len(dm.train_dataloader()) == 2  # 10 items, batch 4, last partial batch dropped
+    val = list(dm.val_dataloader())
+    assert sum(len(b["labels"]) for b in val) == 4
