@@ -141,3 +141,14 @@ def test_duplicate_vertices_are_welded():
 
 def test_single_component():
     assert loose_parts(trimesh.creation.icosphere(2)) == 0
+
+
+def test_stacked_crossing_planks_touch_only_along_edges():
+    """A '+' of two planks, one 0.001 above the other (within tol = 1e-3 * diagonal 2.8):
+    no vertex of either lies over the other's faces and no edge pierces, so only the
+    edge-edge test sees the contact."""
+    low = _box((2.0, 0.2, 0.1), (0, 0, 0.05))
+    high = _box((0.2, 2.0, 0.1), (0, 0, 0.151))
+    assert loose_parts(trimesh.util.concatenate([low, high])) == 0
+    lifted = _box((0.2, 2.0, 0.1), (0, 0, 0.2))
+    assert loose_parts(trimesh.util.concatenate([low, lifted])) == 1

@@ -6,6 +6,7 @@ its height it keeps its height within 2% after about 5 s of simulated time.
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -166,26 +167,79 @@ def _split_segments(edges: np.ndarray, step: float) -> np.ndarray:
     return np.stack([s + t0 * d, s + t1 * d], axis=1)
 
 
+def _local_pieces(p: _Part, q: _Part, tol: float) -> tuple[np.ndarray, np.ndarray]:
+    """p's edges whose box meets q's box (grown by tol), cut to about the size of q's
+    triangles there, and those triangles: the inputs of the edge tests."""
+    lo, hi = p.edges.min(1), p.edges.max(1)
+    keep = np.all((lo <= q.hi + tol) & (hi >= q.lo - tol), axis=1)
+    tri = q.tri[q.tri_near(p.lo, p.hi, tol)]
+    if not keep.any() or len(tri) == 0:
+        return np.empty((0, 2, 3)), tri
+    size = np.sqrt(((tri[:, 1] - tri[:, 0]) ** 2).sum(1))
+    return _split_segments(p.edges[keep], max(float(np.median(size)), tol)), tri
+
+
+def _half_length(seg: np.ndarray) -> float:
+    return float(np.sqrt(((seg[:, 1] - seg[:, 0]) ** 2).sum(1).max())) / 2
+
+
 def _pierces(p: _Part, q: _Part, tol: float) -> bool:
     """Whether an edge of p crosses a triangle of q (surfaces that intersect transversally
-    always have such an edge, even when no vertex is near the other surface). Long edges
-    are cut to about q's triangle size so that the candidate search stays local."""
-    tri = q.tri[q.tri_near(p.lo, p.hi, tol)]
-    edges = p.edges[q.in_box(p.edges.mean(1), tol)]
-    if len(edges) == 0 or len(tri) == 0:
+    always have such an edge, even when no vertex is near the other surface)."""
+    seg, tri = _local_pieces(p, q, tol)
+    if len(seg) == 0:
         return False
-    size = np.sqrt(((tri[:, 1] - tri[:, 0]) ** 2).sum(1))
-    edges = _split_segments(edges, max(float(np.median(size)), tol))
-    half = float(np.sqrt(((edges[:, 1] - edges[:, 0]) ** 2).sum(1).max())) / 2
-    i, t = _pairs(edges.mean(1), tri, half)
-    return bool(len(i) and _segments_cross(edges[i, 0], edges[i, 1], tri[t]).any())
+    i, t = _pairs(seg.mean(1), tri, _half_length(seg))
+    return bool(len(i) and _segments_cross(seg[i, 0], seg[i, 1], tri[t]).any())
+
+
+def _segment_distance(p0, p1, q0, q1) -> np.ndarray:
+    """Pairwise distance between segments p0p1 and q0q1, (n,3) each.
+
+    Minimise |p0 + s d1 - q0 - t d2|^2 over s, t in [0,1]: the unconstrained s from the
+    normal equations, clamped; t = (b s + f) / e for that s, clamped, and s recomputed
+    for a clamped t (a = d1.d1, b = d1.d2, c = d1.r, e = d2.d2, f = d2.r, r = p0 - q0).
+    """
+    d1, d2, r = p1 - p0, q1 - q0, p0 - q0
+    a, e = (d1 * d1).sum(1), (d2 * d2).sum(1)
+    b, c, f = (d1 * d2).sum(1), (d1 * r).sum(1), (d2 * r).sum(1)
+    a, e = np.maximum(a, 1e-30), np.maximum(e, 1e-30)
+    denom = a * e - b * b
+    parallel = denom <= 1e-12 * a * e
+    s = np.where(parallel, 0.0, np.clip((b * f - c * e) / np.where(parallel, 1.0, denom), 0, 1))
+    t = (b * s + f) / e
+    s = np.where(t < 0, np.clip(-c / a, 0, 1), np.where(t > 1, np.clip((b - c) / a, 0, 1), s))
+    t = np.clip(t, 0, 1)
+    gap = p0 + s[:, None] * d1 - q0 - t[:, None] * d2
+    return np.sqrt((gap * gap).sum(1))
+
+
+def _edges_near(p: _Part, q: _Part, tol: float) -> bool:
+    """Whether an edge of p passes within tol of an edge of q's triangles. With the
+    vertex-triangle and piercing tests this makes the surface distance exact: the
+    distance between a segment and a triangle is attained at a segment end, at a crossing,
+    or between the segment and a triangle edge (e.g. two stacked planks that cross)."""
+    seg, tri = _local_pieces(p, q, tol)
+    if len(seg) == 0:
+        return False
+    sides = np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
+    sides = _split_segments(sides, max(2 * _half_length(seg), tol))
+    mids = sides.mean(1)
+    reach = _half_length(seg) + _half_length(sides) + tol
+    lists = cKDTree(seg.mean(1)).query_ball_point(mids, reach)
+    counts = np.fromiter((len(x) for x in lists), dtype=np.int64, count=len(lists))
+    if counts.sum() == 0:
+        return False
+    i, j = np.concatenate(lists).astype(np.int64), np.repeat(np.arange(len(sides)), counts)
+    return bool((_segment_distance(seg[i, 0], seg[i, 1], sides[j, 0], sides[j, 1]) <= tol).any())
 
 
 def _touches(p: _Part, q: _Part, tol: float) -> bool:
-    """Touching is symmetric; the cheap tests run first."""
+    """Whether the surfaces come within tol, or one part lies inside the other; the
+    cheap tests run first, each both ways."""
     if not p.overlaps(q, tol):
         return False
-    tests = (_inside, _near, _pierces)
+    tests = (_inside, _near, _pierces, _edges_near)
     return any(test(a, b, tol) for test in tests for a, b in ((p, q), (q, p)))
 
 
@@ -202,7 +256,7 @@ def _merged_ids(vertices: np.ndarray, eps: float) -> np.ndarray:
     ids = np.arange(len(vertices))
     if eps <= 0:
         return ids
-    pairs = cKDTree(vertices).query_pairs(eps, output_type="ndarray")
+    pairs = cKDTree(vertices, balanced_tree=False).query_pairs(eps, output_type="ndarray")
     if len(pairs):
         n = len(vertices)
         graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
@@ -246,9 +300,9 @@ def loose_parts(mesh: trimesh.Trimesh, tol: float = 1e-3) -> int:
 
     `tol` is relative to the bounding-box diagonal d; the absolute tolerance is tol * d.
     Components are face-connected groups after welding vertices closer than tol * d. Two
-    components touch when a vertex of one lies within tol * d of the other's surface, or
-    inside it (winding number > 1/2, where the other is closed), or an edge of one pierces
-    a triangle of the other. Groups are the connected components of the touching graph;
+    components touch when their surfaces come within tol * d (exactly: a vertex near a
+    triangle, an edge piercing a triangle, or two edges near each other) or one lies inside
+    the other (winding number > 1/2 of a vertex, where the other is closed). Groups are the connected components of the touching graph;
     the answer is (number of components) - (components in the largest group), so 0 means
     every part holds on to the rest. Pairs whose boxes (grown by tol * d) miss are skipped.
     """
@@ -500,3 +554,57 @@ def is_stable(mesh: trimesh.Trimesh, cfg: DropConfig | None = None, tol: float =
     if loose_parts(mesh, tol) > 0:
         return False
     return _drop(mesh, cfg or DropConfig())["standing"]
+
+
+# ---------------------------------------------------------------------------------------------
+# Benchmarks
+# ---------------------------------------------------------------------------------------------
+
+
+def bench_parts_mesh(seed: int = 0, detached: int = 0) -> trimesh.Trimesh:
+    """About 10K faces in 10 closed components: a sphere (5120 faces) pierced by nine tubes
+    (512 faces each) in random directions; the first `detached` tubes float free."""
+    rng = np.random.default_rng(seed)
+    parts = [trimesh.creation.icosphere(subdivisions=4, radius=0.5)]
+    for i in range(9):
+        axis = rng.normal(size=3)
+        axis /= np.linalg.norm(axis)
+        tube = trimesh.creation.cylinder(0.05, 0.6, sections=128)
+        pose = trimesh.geometry.align_vectors((0, 0, 1), axis)
+        pose[:3, 3] = axis * (1.5 if i < detached else 0.7)
+        tube.apply_transform(pose)
+        parts.append(tube)
+    return trimesh.util.concatenate(parts)
+
+
+def _median_ms(fn, repeats: int) -> float:
+    fn()  # warm-up
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t0)
+    return float(np.median(times) * 1000)
+
+
+def bench_loose_parts(repeats: int = 20) -> dict[str, float]:
+    """Milliseconds per loose_parts() on bench_parts_mesh, attached and with one tube loose."""
+    attached, loose = bench_parts_mesh(), bench_parts_mesh(detached=1)
+    return {
+        "attached_ms": _median_ms(lambda: loose_parts(attached), repeats),
+        "one_loose_ms": _median_ms(lambda: loose_parts(loose), repeats),
+    }
+
+
+def bench_drop_test(repeats: int = 5) -> dict[str, float]:
+    """Seconds per drop_test() on a ~10K-face vase (points.bench_mesh) standing upright, and
+    on the same vase tipped 45 degrees so that it falls (the longer, unsettled case)."""
+    from geocode.points import bench_mesh
+
+    vase = bench_mesh()
+    tipped = vase.copy()
+    tipped.apply_transform(trimesh.transformations.rotation_matrix(np.radians(45), (1, 0, 0)))
+    return {
+        "standing_s": _median_ms(lambda: drop_test(vase), repeats) / 1000,
+        "falling_s": _median_ms(lambda: drop_test(tipped), repeats) / 1000,
+    }
