@@ -8,6 +8,14 @@ A unit-sphere mesh projects into a disc of radius 1 from any direction, so every
 fits every view at the same scale, and distances on the image are comparable across
 shapes and cameras (a perspective camera would change the apparent size with the view).
 
+Speed (measured on vase meshes of ~6K faces, one core): ~0.11-0.13 s per view, of which
+Cycles ~0.03 s; the rest is Freestyle. What it takes: Cycles on the CPU, 1 sample, no
+denoising, adaptive sampling, compositing or sequencer, persistent data, one render thread,
+the mesh invisible to all Cycles rays, Freestyle in parameter-editor mode with one line set
+(visible silhouette, border and crease edges; culling on; plain chaining), and mesh data
+swapped in place with foreach_set (~3 ms). Dropping hidden-line removal made it slower (more
+strokes to draw); the crease angle changes little.
+
 Cameras: azimuth in degrees about +z, 0 = looking from -y (Blender's front view), positive
 towards +x; elevation in degrees above the horizon. Meshes are z-up.
 """
@@ -121,9 +129,11 @@ class SketchRenderer:
         self._setup_world()
         self.mesh = bpy.data.meshes.new("geocode_sketch_shape")
         self.obj = bpy.data.objects.new("geocode_sketch_shape", self.mesh)
-        # Cycles need not shade the mesh: the white world is the whole picture. Freestyle
-        # still reads the geometry, so the strokes (and their hidden-line removal) stay.
-        self.obj.visible_camera = False
+        # Cycles need not see the mesh at all: the white world is the whole picture. Freestyle
+        # still reads the geometry, so the strokes (and their hidden-line removal) stay, and
+        # Cycles skips shading it (same bytes, ~10% faster per view).
+        for ray in ("camera", "diffuse", "glossy", "transmission", "volume_scatter", "shadow"):
+            setattr(self.obj, f"visible_{ray}", False)
         self.scene.collection.objects.link(self.obj)
         self.camera = self._setup_camera()
 
