@@ -1,0 +1,147 @@
+"""Encoders, decoders, losses, the fast/reference DGCNN equivalence, and every model config."""
+
+import pytest
+import torch
+import torch.nn.functional as F
+
+from geocode.models import (
+    DGCNN,
+    VARIANTS,
+    Decoders,
+    DGCNNReference,
+    GeoCodeModule,
+    VGGSketchEncoder,
+    knn,
+    knn_chunked,
+)
+from geocode.models.heads import regression_classes, regression_loss
+
+HEADS = [
+    {"name": "size", "n_classes": 5, "continuous": True, "existence": True},
+    {"name": "count", "n_classes": 3, "continuous": False, "existence": False},
+    {"name": "width", "n_classes": 4, "continuous": True, "existence": False},
+]
+
+
+def _randomise_bn(model, seed=0):
+    """Random BN affine parameters (some negative scales) and running statistics."""
+    g = torch.Generator().manual_seed(seed)
+    for m in model.modules():
+        if isinstance(m, torch.nn.modules.batchnorm._BatchNorm):
+            m.weight.data = (torch.rand(m.weight.shape, generator=g) * 2 - 0.5).to(m.weight)
+            m.bias.data = (torch.rand(m.bias.shape, generator=g) - 0.5).to(m.bias)
+            m.running_mean.copy_(torch.rand(m.running_mean.shape, generator=g) - 0.5)
+            m.running_var.copy_(torch.rand(m.running_var.shape, generator=g) + 0.5)
+
+
+def test_knn_chunked_finds_the_same_neighbours():
+    x = torch.randn(3, 80, 5, dtype=torch.float64)
+    ref = knn(x.transpose(1, 2), 20).sort(dim=-1).values
+    fast = knn_chunked(x, 20, chunk_bytes=80 * 80 * 4).sort(dim=-1).values  # one cloud per block
+    assert torch.equal(ref, fast)
+
+
+@pytest.mark.parametrize("train", [True, False])
+def test_fast_dgcnn_equals_reference(train):
+    """Same weights -> same outputs, input and weight gradients, running statistics.
+
+    float64: in float32 the two (exactly equal in real arithmetic) formulations round
+    differently (~1e-6 relative), which can swap a neighbour at a near-tie of the k-th
+    distance; float64 keeps the comparison about the algebra."""
+    torch.manual_seed(0)
+    ref = DGCNNReference(k=20).double()
+    _randomise_bn(ref)
+    fast = DGCNN(k=20).double()
+    fast.load_state_dict(ref.state_dict())
+    ref.train(train), fast.train(train)
+    x = torch.randn(3, 150, 3, dtype=torch.float64)
+    x1, x2 = x.clone().requires_grad_(), x.clone().requires_grad_()
+    out1, out2 = ref(x1), fast(x2)
+    assert out2.shape == (3, 128)
+    torch.testing.assert_close(out2, out1, atol=1e-5, rtol=1e-5)
+    w = torch.randn_like(out1)
+    (out1 * w).sum().backward()
+    (out2 * w).sum().backward()
+    torch.testing.assert_close(x2.grad, x1.grad, atol=1e-5, rtol=1e-5)
+    for (name, p1), (_, p2) in zip(ref.named_parameters(), fast.named_parameters(), strict=True):
+        torch.testing.assert_close(p2.grad, p1.grad, atol=1e-5, rtol=1e-5, msg=name)
+    for (name, b1), (_, b2) in zip(ref.named_buffers(), fast.named_buffers(), strict=True):
+        torch.testing.assert_close(b2.double(), b1.double(), atol=1e-5, rtol=1e-5, msg=name)
+
+
+def test_fast_dgcnn_float32_close():
+    torch.manual_seed(1)
+    ref, fast = DGCNNReference(), DGCNN()
+    fast.load_state_dict(ref.state_dict())
+    x = torch.randn(2, 100, 3)
+    out1, out2 = ref(x), fast(x)
+    torch.testing.assert_close(out2, out1, atol=1e-4, rtol=1e-4)
+
+
+def test_encoder_shapes():
+    assert DGCNN()(torch.randn(2, 64, 3)).shape == (2, 128)
+    assert DGCNN().eval()(torch.randn(1, 30, 3)).shape == (1, 128)
+    assert VGGSketchEncoder()(torch.rand(2, 1, 224, 224)).shape == (2, 128)
+    dec = Decoders(HEADS)
+    out = dec(torch.randn(4, 128))
+    assert {k: v.shape for k, v in out.items()} == {"size": (4, 5), "count": (4, 3), "width": (4, 4)}
+    reg = Decoders(HEADS, regression=True)(torch.randn(4, 128))
+    assert reg["size"].shape == (4, 2) and reg["count"].shape == (4, 3) and reg["width"].shape == (4, 1)
+
+
+def test_loss_is_sum_of_cross_entropies_with_existence_class():
+    dec = Decoders(HEADS)
+    out = {"size": torch.randn(3, 5), "count": torch.randn(3, 3), "width": torch.randn(3, 4)}
+    labels = torch.tensor([[4, 0, 1], [0, 2, 3], [2, 1, 0]])  # size=4: the existence class
+    columns = {"size": 0, "count": 1, "width": 2}
+    expected = sum(F.cross_entropy(out[n], labels[:, j]) for n, j in columns.items())
+    torch.testing.assert_close(dec.loss(out, labels, columns), expected)
+    assert torch.equal(dec.classes(out)["size"], out["size"].argmax(1))
+
+
+def test_regression_head_loss_and_classes():
+    spec = HEADS[0]  # 4 value classes + existence
+    target = torch.tensor([4, 0, 3])  # invisible, 0.0, 1.0
+    pred = torch.tensor([[0.9, 1.0], [0.0, 0.0], [1.0, 0.0]])
+    assert regression_loss(pred, target, spec).item() == pytest.approx(0.0)
+    pred_bad = torch.tensor([[0.0, 0.0], [0.0, 0.0], [1.0, 0.0]])  # says visible for the hidden one
+    assert regression_loss(pred_bad, target, spec).item() == pytest.approx(1 / 3)
+    got = regression_classes(torch.tensor([[0.34, 0.2], [0.7, 0.6], [1.3, 0.0]]), spec)
+    assert got.tolist() == [1, 4, 3]
+
+
+@pytest.mark.parametrize("variant", VARIANTS)
+def test_variants_train_step_and_predict(variant):
+    torch.manual_seed(0)
+    model = GeoCodeModule(HEADS, variant=variant)
+    model.log = model.log_dict = lambda *a, **k: None
+    batch = {"points": torch.randn(4, 60, 3), "sketch": torch.rand(4, 1, 224, 224),
+             "labels": torch.tensor([[4, 0, 1], [0, 2, 3], [2, 1, 0], [1, 0, 2]])}
+    loss = model.training_step(batch, 0)
+    loss.backward()
+    assert torch.isfinite(loss) and loss.item() > 0
+    assert all(p.grad is not None for p in model.parameters() if p.requires_grad)
+    pred = model.eval().predict_classes(points=batch["points"][:1], sketches=batch["sketch"][:1])
+    assert pred["points"].shape == (1, 3) and pred["sketch"].shape == (1, 3)
+    assert (pred["points"][0] < torch.tensor([5, 3, 4])).all()
+
+
+def _compose_model(name):
+    """The composed config's model group; the group file alone where conf/config.yaml is missing."""
+    from omegaconf import OmegaConf
+
+    from geocode.config import compose, repo_root
+
+    if (repo_root() / "conf" / "config.yaml").exists():
+        return compose([f"model={name}", "profile=smoke"]).model
+    return OmegaConf.load(repo_root() / "conf" / "model" / f"{name}.yaml")
+
+
+@pytest.mark.parametrize("name", VARIANTS)
+def test_model_configs_compose_and_instantiate(name):
+    from hydra.utils import instantiate
+
+    cfg = _compose_model(name)
+    model = instantiate(cfg, heads=HEADS, lr=1e-2, step_size=20, gamma=0.9, _convert_="all")
+    assert isinstance(model, GeoCodeModule) and model.hparams.variant == name
+    assert model.parameter_names == ["size", "count", "width"]
