@@ -31,7 +31,7 @@ AXES = ("x", "y", "z")
 _KINDS = {"NodeSocketBool": "bool", "NodeSocketInt": "int", "NodeSocketFloat": "float",
           "NodeSocketVector": "vector"}
 _UNBOUNDED = 1e30  # Blender's default socket range is +-3.4e38: treat as "not given"
-_LOADED: dict[str, Program] = {}
+_LOADED: dict[str, Program] = {}  # by program file: one build per process
 
 
 def programs_dir() -> Path:
@@ -73,9 +73,10 @@ class Program:
     @classmethod
     def load(cls, domain: str) -> Program:
         """The program of `domain`; loaded once per process and rebuilt after a reset."""
-        program = _LOADED.get(domain)
+        key = str((programs_dir() / f"{domain}.py").resolve())
+        program = _LOADED.get(key)
         if program is None:
-            program = _LOADED[domain] = cls(domain, _import_program(domain))
+            program = _LOADED[key] = cls(domain, _import_program(domain))
         program._ensure_alive()
         return program
 

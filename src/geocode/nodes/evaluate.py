@@ -21,9 +21,9 @@ class Evaluator:
 
     def __init__(self, tree: bpy.types.GeometryNodeTree, name: str | None = None):
         name = name or f"geocode:{tree.name}"
-        self.object_name = name
         mesh = bpy.data.meshes.new(name)
         obj = bpy.data.objects.new(name, mesh)
+        self.object_name = obj.name  # Blender appends .001 when the name is taken
         bpy.context.scene.collection.objects.link(obj)
         modifier = obj.modifiers.new("GeometryNodes", "NODES")
         modifier.node_group = tree
