@@ -20,8 +20,10 @@ def test_rebuild_writes_unit_sphere_objs(tmp_path):
         mesh = meshio.read_obj(path)
         assert np.linalg.norm(mesh.vertices, axis=1).max() == pytest.approx(1.0, abs=1e-5)
     stamp = paths[0].stat().st_mtime_ns
-    rb.rebuild("tower", rows, tmp_path, program=TowerDouble())          # resumes: keeps files
+    rb.rebuild("tower", rows, tmp_path, program=TowerDouble(), overwrite=False)   # resumes
     assert paths[0].stat().st_mtime_ns == stamp
+    rb.rebuild("tower", [(rows[0][0], {"height": 1.5})], tmp_path, program=TowerDouble())
+    assert paths[0].stat().st_mtime_ns != stamp                         # new values replace
 
 
 def test_rebuild_names_the_failing_key(tmp_path):

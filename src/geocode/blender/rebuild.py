@@ -17,10 +17,11 @@ log = logging.getLogger(__name__)
 
 
 def rebuild(domain: str, rows: Iterable[tuple[str, Mapping[str, float]]], out_dir: str | Path,
-            program=None, overwrite: bool = False, total: int | None = None) -> list[Path]:
+            program=None, overwrite: bool = True, total: int | None = None) -> list[Path]:
     """Write `<out_dir>/<key>.obj` for every (key, values); values missing from a row take the
-    program's defaults. Existing OBJs are kept unless `overwrite` (a rerun resumes). `total`
-    only feeds the progress ETA when `rows` is a generator. Returns the OBJ paths in order."""
+    program's defaults. Existing OBJs are replaced (new predictions must never meet stale
+    meshes) unless `overwrite=False`, which resumes a crashed run. `total` only feeds the
+    progress ETA when `rows` is a generator. Returns the OBJ paths in order."""
     program = program or load_program(domain)
     out_dir = Path(out_dir)
     if total is None and hasattr(rows, "__len__"):
