@@ -168,7 +168,7 @@ class GeoCodeModule(pl.LightningModule):
                 per = correct.mean(dim=0)  # (P,)
                 self.log_dict({f"val_param/{modality}/{n}": per[j] for n, j in self.columns.items()},
                               batch_size=size, on_epoch=True, on_step=False)
-        self.log(f"{stage}/loss", total, batch_size=size, on_epoch=True, on_step=stage == "train",
+        self.log(f"{stage}/loss", total, batch_size=size, on_epoch=True, on_step=False,
                  prog_bar=True)
         self.log(f"{stage}/acc", torch.stack(accs).mean(), batch_size=size, on_epoch=True,
                  on_step=False, prog_bar=True)

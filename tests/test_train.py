@@ -1,0 +1,81 @@
+"""train(cfg) on the synthetic dataset of test_data: one epoch, resume, predict, bad checkpoints."""
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+import torch
+
+from geocode.config import compose
+from geocode.train import CheckpointError, load_model, predict, predict_classes, train
+from test_data import CAMERAS, DOMAIN, N_FPS, N_PICK, make_dataset
+
+
+@pytest.fixture(scope="module")
+def run(tmp_path_factory):
+    """A one-epoch run of the joint model; returns (cfg, result)."""
+    root = tmp_path_factory.mktemp("train")
+    data, build, recipe_path = make_dataset(root)
+    cfg = compose([
+        "profile=smoke", f"paths.data={data}", f"paths.build={build}", f"paths.runs={root / 'runs'}",
+        f"domain.name={DOMAIN}", f"domain.recipe={recipe_path}", f"data.points.train_random={N_PICK}",
+        "train.max_epochs=1", "train.batch_size=4", "train.accelerator=cpu", "train.devices=1",
+    ])
+    assert [c.name for c in cfg.data.sketch.cameras if c.train] == CAMERAS
+    return cfg, train(cfg)
+
+
+def test_one_epoch_writes_checkpoints_and_logs(run):
+    cfg, result = run
+    out = cfg.paths.runs + f"/{DOMAIN}/joint"
+    assert result["out_dir"] == out and result["resumed"] is False
+    for name in ("checkpoints/best.ckpt", "checkpoints/last.ckpt", "logs/metrics.csv", "config.yaml"):
+        assert (Path(result["out_dir"]) / name).exists(), name
+    metrics = pd.read_csv(f"{out}/logs/metrics.csv")
+    assert {"val/acc", "val/acc_points", "val/acc_sketch", "train/loss"} <= set(metrics.columns)
+    assert 0.0 <= result["best_val_acc"] <= 1.0
+
+
+def test_resume_from_last(run):
+    cfg, first = run
+    cfg.train.max_epochs = 2
+    result = train(cfg)
+    assert result["resumed"] is True and result["epochs"] == 2
+    ckpt = torch.load(result["last"], weights_only=True)
+    assert ckpt["global_step"] == 4  # 2 epochs x 2 batches
+
+
+def test_predict_api(run):
+    _, result = run
+    model = load_model(result["best"])
+    assert model.parameter_names == ["height", "has_handle", "handle_size", "legs"]
+    rng = np.random.default_rng(0)
+    points = rng.normal(size=(5, N_FPS + N_PICK, 3)).astype(np.float32)
+    sketches = rng.random((3, 1, 224, 224)).astype(np.float32)
+    got = predict(result["best"], points=points, sketches=sketches, batch_size=2)
+    assert got["names"] == model.parameter_names
+    assert got["points"].shape == (5, 4) and got["sketch"].shape == (3, 4)
+    assert got["points"].dtype == np.int64 and (got["points"][:, 2] <= 2).all()
+    np.testing.assert_array_equal(predict_classes(model, points=points[:, :500]), got["points"])
+    other = predict_classes(model, points=rng.normal(size=(2, 1000, 3)))  # any number of points
+    assert other.shape == (2, 4)
+
+
+def test_bad_checkpoints_fail_in_one_line(run, tmp_path):
+    _, result = run
+    broken = tmp_path / "broken.ckpt"
+    broken.write_bytes(b"not a checkpoint")
+    with pytest.raises(CheckpointError, match="broken.ckpt") as err:
+        load_model(broken)
+    assert "\n" not in str(err.value)
+    foreign = tmp_path / "foreign.ckpt"
+    torch.save({"state_dict": {}, "hyper_parameters": {}}, foreign)
+    with pytest.raises(CheckpointError, match="foreign.ckpt: not a geocode model"):
+        load_model(foreign)
+    ckpt = torch.load(result["best"], weights_only=True)
+    ckpt["hyper_parameters"]["heads"][0]["n_classes"] = 7
+    mismatched = tmp_path / "mismatched.ckpt"
+    torch.save(ckpt, mismatched)
+    with pytest.raises(CheckpointError, match="mismatched.ckpt: checkpoint does not fit"):
+        load_model(mismatched)
