@@ -1,0 +1,248 @@
+"""The chair program: parameters, inferred visibility, recipe, and its structural rules (each
+rule: change one parameter, check the geometric consequence)."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("bpy")
+
+from geocode.program import Program  # noqa: E402
+from geocode.recipe import Recipe  # noqa: E402
+from geocode.stability import drop_test, loose_parts  # noqa: E402
+
+pytestmark = pytest.mark.blender
+
+ROOT = Path(__file__).resolve().parents[1]
+# a chair with every optional part of the open backrest on
+FULL = {"cushion": 1, "armrest_style": 1, "armrest_support": 1, "armrest_cushion": 1,
+        "top_rail": 1, "backrest_solid": 0, "vertical_rails": 0, "monoleg": 0}
+
+
+@pytest.fixture(scope="module")
+def chair():
+    import bpy
+
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    return Program.load("chair")
+
+
+@pytest.fixture(scope="module")
+def label(chair):
+    """Part label constants of the program module (SEAT, LEGS, ...)."""
+    return chair._module
+
+
+def _faces_of(mesh, labels):
+    return np.isin(mesh.metadata["part"], list(labels))
+
+
+def _vertices(mesh, *labels) -> np.ndarray:
+    """Vertices of the faces labelled with any of `labels`."""
+    faces = mesh.faces[_faces_of(mesh, labels)]
+    return mesh.vertices[np.unique(faces)]
+
+
+def _only(mesh, *labels):
+    """The sub-mesh of the faces labelled with any of `labels`."""
+    sub = mesh.submesh([np.flatnonzero(_faces_of(mesh, labels))], append=True)
+    return sub
+
+
+# -- parameters, visibility, recipe ---------------------------------------------------------------
+
+def test_parameters_cover_the_chair(chair):
+    names = {p.name for p in chair.parameters}
+    kinds = [p.kind for p in chair.parameters]
+    assert len(names) >= 59
+    assert kinds.count("float") >= 40 and len(kinds) - kinds.count("float") >= 10
+    expected = {
+        "scale_x", "scale_y", "scale_z", "seat_height", "seat_roundness", "cushion",
+        "cushion_fill", "cross_rail_count", "cross_rail_thickness_y", "cross_rail_thickness_z",
+        "cross_rail_bottom_offset", "cross_rail_top_offset", "cross_rail_roundness",
+        "vertical_rail_count", "vertical_rail_size", "vertical_rail_roundness", "top_rail",
+        "top_rail_size", "top_rail_roundness", "top_rail_fill", "backrest_solid",
+        "backrest_curvature", "backrest_slant", "back_frame_offset", "back_leg_offset",
+        "leg_splay", "leg_taper", "leg_bevel", "monoleg", "monoleg_top_radius",
+        "monoleg_bottom_radius", "tent_legs", "tent_leg_count", "tent_leg_spread",
+        "armrest_style", "armrest_support", "armrest_cushion", "armrest_width",
+        "armrest_back_height", "armrest_front_height", "armrest_mid", "armrest_edge",
+        "rail_bevel",
+    }
+    assert expected <= names, expected - names
+    for p in chair.parameters:
+        assert p.description and p.min <= p.default <= p.max, p.name
+
+
+def test_visibility_rules_are_inferred_from_the_switches(chair):
+    rules = {name: None if rule is None else str(rule)
+             for name, rule in chair.visibility().items()}
+    assert sum(rule is not None for rule in rules.values()) >= 20
+    assert rules["seat_height"] is None and rules["monoleg"] is None
+    assert rules["leg_splay"] == "not monoleg"
+    assert rules["tent_leg_count"] == "monoleg and tent_legs"
+    assert rules["cross_rail_count"] == "not backrest_solid and not vertical_rails"
+    assert rules["vertical_rail_size"] == "not backrest_solid and vertical_rails"
+    assert rules["top_rail_fill"] == "not backrest_solid and top_rail"
+    assert rules["armrest_mid"] == "armrest_style == 2"
+    assert rules["armrest_support"] == "armrest_style == 1"
+    assert rules["armrest_width"] == "armrest_style == 1 or armrest_style == 2"
+
+
+@pytest.mark.parametrize("hidden, change", [
+    ({"armrest_style": 0}, {"armrest_width": 0.07}),
+    ({"armrest_style": 1}, {"armrest_mid": 0.6}),
+    ({"monoleg": 1}, {"leg_splay": 0.08}),
+    ({"monoleg": 0}, {"tent_legs": 1, "monoleg_bottom_radius": 0.3}),
+    ({"backrest_solid": 1}, {"cross_rail_count": 4, "top_rail_size": 0.14}),
+    ({"vertical_rails": 1}, {"cross_rail_thickness_z": 0.08}),
+])
+def test_invisible_parameters_leave_the_mesh_unchanged(chair, hidden, change):
+    before = chair.evaluate(hidden)
+    after = chair.evaluate({**hidden, **change})
+    assert np.array_equal(before.vertices, after.vertices)
+
+
+def test_recipe_loads_against_the_program(chair):
+    recipe = Recipe.load(ROOT / "programs" / "chair.yaml", chair.parameters, chair.visibility())
+    assert {p.name for p in recipe.parameters} == {p.name for p in chair.parameters}
+    for p in recipe.parameters:
+        if p.kind == "float":
+            assert 3 <= p.samples <= 5, p.name
+    texts = [str(c) for c in recipe.constraints]
+    assert any("cross_rail_top_offset" in t for t in texts)
+    assert any("monoleg_bottom_radius" in t for t in texts)
+
+
+def test_every_part_carries_its_own_label(chair, label):
+    open_back = chair.evaluate(FULL)
+    assert set(open_back.metadata["part"]) == {
+        label.SEAT, label.CUSHION, label.LEGS, label.BACK_FRAME, label.CROSS_RAILS,
+        label.TOP_RAIL, label.ARMRESTS, label.ARM_SUPPORTS, label.ARM_PADS}
+    rails = chair.evaluate({"vertical_rails": 1, "top_rail": 0, "monoleg": 1, "tent_legs": 1})
+    assert set(rails.metadata["part"]) == {label.SEAT, label.BACK_FRAME, label.VERTICAL_RAILS,
+                                           label.MONOLEG, label.TENT_LEGS}
+    solid = chair.evaluate({"backrest_solid": 1, "armrest_style": 2})
+    assert set(solid.metadata["part"]) == {label.SEAT, label.LEGS, label.BACK_FRAME,
+                                           label.BACK_PANEL, label.ARMRESTS}
+
+
+# -- structural rules ------------------------------------------------------------------------------
+
+def test_raising_the_seat_moves_legs_frame_and_rails(chair, label):
+    low = chair.evaluate({**FULL, "seat_height": 0.35, "seat_thickness": 0.05})
+    high = chair.evaluate({**FULL, "seat_height": 0.6, "seat_thickness": 0.05})
+    def rise(part):
+        return _vertices(high, part)[:, 2].mean() - _vertices(low, part)[:, 2].mean()
+
+    # grounding shifts both by the dip of the slanted feet's rims (a few mm)
+    assert rise(label.SEAT) == pytest.approx(0.25, abs=5e-3)
+    for part in (label.BACK_FRAME, label.CROSS_RAILS, label.TOP_RAIL, label.ARMRESTS):
+        assert rise(part) == pytest.approx(rise(label.SEAT), abs=1e-5), part
+    for mesh, top in ((low, 0.35), (high, 0.6)):
+        legs = _vertices(mesh, label.LEGS)
+        assert legs[:, 2].min() == pytest.approx(0.0, abs=1e-6)
+        # the legs reach up into the seat slab
+        assert top - 0.05 < legs[:, 2].max() < top
+
+
+def test_rounder_seat_moves_legs_and_frame_inwards(chair, label):
+    square = chair.evaluate({"seat_roundness": 0.0, "leg_splay": 0.0})
+    round_ = chair.evaluate({"seat_roundness": 1.0, "leg_splay": 0.0})
+    for part in (label.LEGS, label.BACK_FRAME):
+        s, r = _vertices(square, part), _vertices(round_, part)
+        assert r[:, 0].max() < s[:, 0].max() - 0.02, part
+    s, r = _vertices(square, label.LEGS), _vertices(round_, label.LEGS)
+    assert r[:, 1].max() < s[:, 1].max() - 0.02
+    # the leg tops stay under the round seat's outline (a disc of radius 0.25)
+    tops = r[r[:, 2] > r[:, 2].max() - 1e-3]
+    assert np.linalg.norm(tops[:, :2], axis=1).max() < 0.25
+
+
+@pytest.mark.parametrize("curvature", [-0.5, 0.5])
+@pytest.mark.parametrize("slant", [-0.05, 0.35])
+def test_rails_span_the_backrest_frame_at_any_curvature_and_slant(chair, label, curvature,
+                                                                  slant):
+    bend = {"backrest_curvature": curvature, "backrest_slant": slant, "back_frame_offset": 0.5,
+            "cross_rail_count": 4, "cross_rail_bottom_offset": 0.1,
+            "cross_rail_top_offset": 0.9}
+    for rails, part in (({"vertical_rails": 0}, label.CROSS_RAILS),
+                        ({"vertical_rails": 1, "vertical_rail_count": 5},
+                         label.VERTICAL_RAILS)):
+        mesh = chair.evaluate({**FULL, **bend, **rails})
+        frame, rail = _vertices(mesh, label.BACK_FRAME), _vertices(mesh, part)
+        assert frame[:, 0].min() - 1e-6 <= rail[:, 0].min()
+        assert rail[:, 0].max() <= frame[:, 0].max() + 1e-6
+        assert frame[:, 2].min() - 1e-6 <= rail[:, 2].min()
+        assert rail[:, 2].max() <= frame[:, 2].max() + 0.05
+        assert loose_parts(_only(mesh, label.SEAT, label.BACK_FRAME, part)) == 0
+
+
+@pytest.mark.parametrize("arm", [
+    {"armrest_style": 1, "armrest_support": 1, "armrest_cushion": 1},
+    {"armrest_style": 1, "armrest_support": 0, "armrest_cushion": 1,
+     "armrest_front_height": 1.3},
+    {"armrest_style": 2, "armrest_mid": -0.6},
+    {"armrest_style": 2, "armrest_mid": 0.6},
+])
+@pytest.mark.parametrize("shape", [
+    {"seat_roundness": 1.0, "backrest_slant": 0.35, "armrest_back_height": 0.8,
+     "armrest_edge": 1.0, "back_frame_offset": 0.0},
+    {"seat_roundness": 0.0, "backrest_slant": -0.05, "armrest_back_height": 0.35,
+     "armrest_edge": 0.6, "back_frame_offset": 0.5, "backrest_curvature": 0.5},
+])
+def test_armrests_stay_attached_to_the_frame_and_the_seat(chair, label, arm, shape):
+    mesh = chair.evaluate({**FULL, **shape, **arm})
+    arms = (label.ARMRESTS, label.ARM_SUPPORTS, label.ARM_PADS)
+    assert len(_vertices(mesh, *arms))
+    assert loose_parts(_only(mesh, label.SEAT, label.BACK_FRAME, *arms)) == 0
+    # without the frame, the arms of a straight style without support hang free: they
+    # are held by the frame, not by chance contacts
+    if arm["armrest_style"] == 1 and not arm["armrest_support"]:
+        assert loose_parts(_only(mesh, label.SEAT, *arms)) > 0
+
+
+@pytest.mark.parametrize("count", [3, 6])
+def test_monoleg_with_tent_legs_stands_on_a_wide_base(chair, label, count):
+    mesh = chair.evaluate({"monoleg": 1, "tent_legs": 1, "tent_leg_count": count,
+                           "tent_leg_spread": 0.22, "armrest_style": 1})
+    assert mesh.vertices[:, 2].min() == pytest.approx(0.0, abs=1e-6)
+    feet = _vertices(mesh, label.TENT_LEGS)
+    feet = feet[feet[:, 2] < 0.01]
+    span = feet.max(0) - feet.min(0)
+    assert span[0] > 0.3 and span[1] > 0.3
+    # the column ends above the floor: the legs carry the chair
+    assert _vertices(mesh, label.MONOLEG)[:, 2].min() > 0.03
+    assert loose_parts(mesh) == 0
+
+
+def test_monoleg_foot_rests_on_the_floor(chair, label):
+    mesh = chair.evaluate({"monoleg": 1, "tent_legs": 0, "monoleg_bottom_radius": 0.2})
+    foot = _vertices(mesh, label.MONOLEG)
+    foot = foot[foot[:, 2] < 1e-6]
+    assert np.linalg.norm(foot[:, :2], axis=1).max() == pytest.approx(0.2, abs=1e-3)
+
+
+def test_overall_scale_scales_each_axis(chair):
+    base = chair.evaluate({})
+    scaled = chair.evaluate({"scale_x": 1.25, "scale_y": 0.8, "scale_z": 1.2})
+    extent = lambda m: m.bounds[1] - m.bounds[0]  # noqa: E731
+    assert extent(scaled) / extent(base) == pytest.approx([1.25, 0.8, 1.2], rel=1e-4)
+    assert scaled.vertices[:, 2].min() == pytest.approx(0.0, abs=1e-6)
+
+
+def test_random_chairs_are_whole_finite_and_grounded(chair):
+    rng = np.random.default_rng(7)
+    for _ in range(100):
+        values = chair.random_values(rng)
+        mesh = chair.evaluate(values)
+        assert np.isfinite(mesh.vertices).all(), values
+        assert mesh.vertices[:, 2].min() == pytest.approx(0.0, abs=1e-6), values
+        assert loose_parts(mesh) == 0, values
+
+
+def test_random_chairs_mostly_survive_the_drop_test(chair):
+    rng = np.random.default_rng(11)
+    stable = [drop_test(chair.evaluate(chair.random_values(rng)))["stable"] for _ in range(12)]
+    assert sum(stable) >= 10
