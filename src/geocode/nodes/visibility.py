@@ -16,7 +16,6 @@ A selector the translator cannot express (a field, an unsupported node) counts a
 from __future__ import annotations
 
 import sys
-from functools import lru_cache
 
 from geocode.expr import (
     TRUE,
@@ -75,23 +74,23 @@ class _Walker:
     """Memoised walk over (socket, group-node context) pairs."""
 
     def __init__(self):
-        self._sockets: dict[tuple, object] = {}
+        self._memo: dict[tuple, DNF] = {}
 
-    def _remember(self, socket, context) -> tuple:
+    def _memoised(self, socket, context: tuple, compute) -> DNF:
+        """Each (socket, group context) is walked once: shared subgraphs stay linear."""
         key = (_socket_key(socket), tuple((n.id_data.name, n.name) for n in context))
-        self._sockets[key] = (socket, context)
-        return key
+        if key not in self._memo:
+            self._memo[key] = compute(socket, context)
+        return self._memo[key]
 
     def reach_from_output(self, socket, context: tuple) -> DNF:
-        return self._reach_out(self._remember(socket, context))
+        return self._memoised(socket, context, self._reach_out)
 
     def reach_from_input(self, socket, context: tuple) -> DNF:
-        return self._reach_in(self._remember(socket, context))
+        return self._memoised(socket, context, self._reach_in)
 
-    # an output socket reaches the result through any of its links
-    @lru_cache(maxsize=None)  # noqa: B019 - one walker per inference, freed with it
-    def _reach_out(self, key: tuple) -> DNF:
-        socket, context = self._sockets[key]
+    def _reach_out(self, socket, context: tuple) -> DNF:
+        """An output socket reaches the result through any of its links."""
         result: set = set()
         for link in socket.links:
             if link.is_muted or not link.is_valid:
@@ -99,9 +98,7 @@ class _Walker:
             result |= self.reach_from_input(link.to_socket, context)
         return _prune(result)
 
-    @lru_cache(maxsize=None)  # noqa: B019
-    def _reach_in(self, key: tuple) -> DNF:
-        socket, context = self._sockets[key]
+    def _reach_in(self, socket, context: tuple) -> DNF:
         node = socket.node
         kind = node.bl_idname
         if kind == "NodeGroupOutput":
