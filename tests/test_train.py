@@ -30,9 +30,9 @@ def test_one_epoch_writes_checkpoints_and_logs(run):
     cfg, result = run
     out = cfg.paths.runs + f"/{DOMAIN}/joint"
     assert result["out_dir"] == out and result["resumed"] is False
-    for name in ("checkpoints/best.ckpt", "checkpoints/last.ckpt", "logs/metrics.csv", "config.yaml"):
+    for name in ("checkpoints/best.ckpt", "checkpoints/last.ckpt", "logs/version_0/metrics.csv", "config.yaml"):
         assert (Path(result["out_dir"]) / name).exists(), name
-    metrics = pd.read_csv(f"{out}/logs/metrics.csv")
+    metrics = pd.read_csv(f"{out}/logs/version_0/metrics.csv")
     assert {"val/acc", "val/acc_points", "val/acc_sketch", "train/loss"} <= set(metrics.columns)
     assert 0.0 <= result["best_val_acc"] <= 1.0
 
@@ -44,6 +44,7 @@ def test_resume_from_last(run):
     assert result["resumed"] is True and result["epochs"] == 2
     ckpt = torch.load(result["last"], weights_only=True)
     assert ckpt["global_step"] == 4  # 2 epochs x 2 batches
+    assert (Path(result["out_dir"]) / "logs" / "version_1" / "metrics.csv").exists()  # first log kept
 
 
 def test_predict_api(run):

@@ -134,7 +134,7 @@ def train(cfg: DictConfig, out_dir: str | Path | None = None) -> dict:
         devices=t.get("devices", "auto"),
         deterministic=t.get("deterministic", False),
         default_root_dir=out,
-        logger=[CSVLogger(out, name="logs", version=""), TensorBoardLogger(out, name="tb", version="")],
+        logger=[CSVLogger(out, name="logs"), TensorBoardLogger(out, name="tb")],  # version_<n> per (re)start
         callbacks=[best_cb, EpochLog()],
         enable_progress_bar=sys.stderr.isatty() if progress is None else bool(progress),
         enable_model_summary=False,
