@@ -31,6 +31,7 @@ def _assert_valid(mesh, values=None):
     assert np.isfinite(mesh.vertices).all(), values
     assert mesh.vertices[:, 2].min() == pytest.approx(0.0, abs=1e-6), values  # resting on z=0
     assert len(mesh.metadata["part"]) == len(mesh.faces)
+    assert (mesh.metadata["part"] > 0).all()  # every face belongs to a labelled part
     assert loose_parts(mesh) == 0, values
 
 

@@ -9,6 +9,8 @@ inside blocks count, with their selectors rewritten in terms of the program's in
 
 The rule of an input is the disjunction over its paths of the conjunction of their
 conditions, simplified (duplicates, constants, absorption `a or (a and b)` -> `a`).
+A Menu Switch fed by a constant menu selects its one item; one fed by a link (a menu can
+only come from a menu input, never from a bool/int/float parameter) may select any item.
 A selector the translator cannot express (a field, an unsupported node) counts as
 "possibly selected", so an input is never hidden by mistake.
 """
