@@ -25,6 +25,8 @@ rule export:
         manifest=lambda w: manifest(w.domain),
     output:
         f"{DATA}/{{domain}}/{{split}}/done/export-{{shard}}.txt",
+    wildcard_constraints:
+        split="train|val|test",  # test-s<factor> copies come from rule simplify
     log:
         f"{LOGS}/export/{{domain}}-{{split}}-{{shard}}.log",
     params:

@@ -15,7 +15,7 @@ rule tables:
     resources:
         mem_mb=2000,
     shell:
-        "geocode tables -o {output} --metrics {input.metrics} {params.args} > {log} 2>&1"
+        "geocode tables {params.args} -o {output} --metrics {input.metrics} > {log} 2>&1"
 
 
 rule report:
@@ -32,4 +32,4 @@ rule report:
     resources:
         mem_mb=3000,
     shell:
-        "geocode report -o results/report --metrics {input} {params.args} > {log} 2>&1"
+        "geocode report {params.args} -o results/report --metrics {input} > {log} 2>&1"
