@@ -88,12 +88,12 @@ def simplify_step(cfg: DictConfig, domain: str, factor: int) -> str:
 def point_input(cfg: DictConfig, domain: str, cond: dict, shape_id: str) -> np.ndarray:
     """The evaluation cloud of one shape under one condition, float32 (N, 3)."""
     from geocode.data import eval_cloud
-    from geocode.points import add_noise, load_clouds, sample_surface
+    from geocode.points import add_noise, load_clouds, sparse_cloud
 
     rng = id_seed(cfg.seed, "eval", cond["condition"], shape_id)
     if cond["sparse"]:
         mesh = read_obj(data_dir(cfg, domain, "test") / "shapes" / f"{shape_id}.obj")
-        return sample_surface(mesh, cond["sparse"], rng)
+        return sparse_cloud(mesh, cond["sparse"], rng)
     split = "test" if cond["source"] == "test" else f"test-{cond['source']}"
     clouds = load_clouds(data_dir(cfg, domain, split) / "points" / f"{shape_id}.npz")
     cloud = eval_cloud(clouds, cfg.data.points.train_random, shape_id)
@@ -192,3 +192,22 @@ def metrics_step(cfg: DictConfig, domain: str, predictions: Path, out: Path) -> 
     frame = pd.DataFrame(rows).assign(domain=domain, variant=variant)
     write_parquet(out, frame)
     return f"{domain}/{variant}: {len(frame)} metric rows"
+
+
+# -- benchmark --------------------------------------------------------------------------------
+
+def bench_eval(domain: str, n: int = 40) -> dict:
+    """Rebuild rate, Chamfer time (10k vs 10k) and drop-test time on real shapes of a domain."""
+    from geocode.blender.export import load_program, random_rows, unit_mesh
+    from geocode.blender.rebuild import bench_rebuild
+    from geocode.metrics import bench_chamfer
+    from geocode.stability import drop_test
+
+    program = load_program(domain)
+    meshes = [unit_mesh(program, values) for _, values in random_rows(program, n, seed=2)]
+    start = time.perf_counter()
+    stable = [drop_test(mesh)["stable"] for mesh in meshes]
+    drop_s = (time.perf_counter() - start) / n
+    return {"n": n, "rebuild_shapes_per_s": round(bench_rebuild(domain, n, program=program), 2),
+            "chamfer_ms": round(bench_chamfer(), 2), "drop_test_s": round(drop_s, 3),
+            "stable_rate": round(float(np.mean(stable)), 3)}
