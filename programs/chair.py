@@ -24,8 +24,7 @@ from __future__ import annotations
 
 import math
 
-from geocode.nodes import Graph, mirror, radial, rectangle_fillet, sample_curve, \
-    sample_curve_array
+from geocode.nodes import Graph, mirror, radial, rectangle_fillet, sample_curve, sample_curve_array
 from geocode.nodes.frames import aligned_bevel_xy, bezier_segment_style
 from geocode.nodes.parts import (
     cross_rail,
@@ -41,8 +40,8 @@ from geocode.nodes.parts import (
 )
 
 # part labels (segmentation)
-SEAT, CUSHION, LEGS, BACK_FRAME, CROSS_RAILS, VERTICAL_RAILS, TOP_RAIL, BACK_PANEL, \
-    ARMRESTS, ARM_SUPPORTS, ARM_PADS, MONOLEG, TENT_LEGS = range(1, 14)
+(SEAT, CUSHION, LEGS, BACK_FRAME, CROSS_RAILS, VERTICAL_RAILS, TOP_RAIL, BACK_PANEL,
+ ARMRESTS, ARM_SUPPORTS, ARM_PADS, MONOLEG, TENT_LEGS) = range(1, 14)
 
 SEAT_SIZE = 0.5          # width and depth of the seat before the overall scale
 LEG_INSET = 1.2          # legs sit this many radii inside the seat's corner
@@ -139,21 +138,18 @@ class _Chair:
         self.corner_x, self.corner_y = corner["X"], corner["Y"]
         # attachments start inside the slab: halfway down from its top
         self.inside = g.sub(p["seat_height"], g.mul(p["seat_thickness"], SINK))
+        # x of the right frame's axis: inside the seat corner, moved in by the offset
+        x = g.sub(self.corner_x, g.mul(p["frame_width"], 0.5))
+        self.frame_x = g.mul(x, g.sub(1.0, p["back_frame_offset"]))
         self.frame_curve, self.frame = self._frame()
 
     # -- backrest frame -------------------------------------------------------------------
-
-    def frame_x(self):
-        """x of the right frame's axis: inside the seat corner, moved in by the offset."""
-        g, p = self.g, self.p
-        x = g.sub(self.corner_x, g.mul(p["frame_width"], 0.5))
-        return g.mul(x, g.sub(1.0, p["back_frame_offset"]))
 
     def _frame(self):
         g, p = self.g, self.p
         y = g.sub(self.corner_y, g.mul(p["frame_depth"], 0.5))
         rise = g.add(p["backrest_height"], g.mul(p["seat_thickness"], SINK))
-        bottom = g.combine(self.frame_x(), y, self.inside)
+        bottom = g.combine(self.frame_x, y, self.inside)
         top = g.vmath("ADD", bottom, g.combine(0.0, g.mul(p["backrest_slant"], rise), rise))
         bow = g.combine(0.0, g.mul(p["backrest_curvature"], g.mul(rise, 0.25)), 0.0)
         frame = quadratic_cartesian_aligned_xy_frame(
@@ -166,7 +162,7 @@ class _Chair:
         """The frame's path moved to x = 0 and swept with another profile (panels, rails)."""
         g = self.g
         centred = g.transform(self.frame_curve,
-                              translation=g.combine(g.mul(self.frame_x(), -1.0), 0.0, 0.0))
+                              translation=g.combine(g.mul(self.frame_x, -1.0), 0.0, 0.0))
         profile = rectangle_fillet(g, width=width, height=depth, roundness=roundness,
                                    resolution=2)["Curve"]
         return aligned_bevel_xy(g, curve=centred, profile_curve=profile, radius=1.0,
@@ -241,7 +237,7 @@ def _cross_rails(c: _Chair):
     points = sample_curve_array(g, curve=c.frame_curve, count=p["cross_rail_count"],
                                 start_margin=p["cross_rail_bottom_offset"],
                                 end_margin=g.sub(1.0, p["cross_rail_top_offset"]))["Points"]
-    return cross_rail(g, points=points, half_length=c.frame_x(),
+    return cross_rail(g, points=points, half_length=c.frame_x,
                       thickness_y=p["cross_rail_thickness_y"],
                       thickness_z=p["cross_rail_thickness_z"],
                       roundness=p["cross_rail_roundness"], part=CROSS_RAILS)["Mesh"]
@@ -252,7 +248,7 @@ def _vertical_rails(c: _Chair):
     g, p = c.g, c.p
     one = c.frame_sweep(p["vertical_rail_size"], g.mul(p["frame_depth"], 0.6),
                         p["vertical_rail_roundness"], VERTICAL_RAILS)
-    x = c.frame_x()
+    x = c.frame_x
     across = g.node("GeometryNodeCurvePrimitiveLine", {
         "Start": g.combine(g.mul(x, -1.0), 0.0, 0.0), "End": g.combine(x, 0.0, 0.0)}).out
     margin = g.div(1.0, g.add(p["vertical_rail_count"], 1.0))
@@ -266,7 +262,7 @@ def _top_rail(c: _Chair):
     g, p = c.g, c.p
     end = sample_curve(g, curve=c.frame_curve, factor=1.0)
     mesh = top_rail(g, center=end["Position"], tangent=end["Tangent"],
-                    half_length=g.add(c.frame_x(), g.mul(p["frame_width"], 0.5)),
+                    half_length=g.add(c.frame_x, g.mul(p["frame_width"], 0.5)),
                     size=p["top_rail_size"], depth=p["top_rail_depth"],
                     roundness=p["top_rail_roundness"], fill=p["top_rail_fill"],
                     part=TOP_RAIL)["Mesh"]
@@ -278,7 +274,7 @@ def _backrest(c: _Chair):
     rails = g.switch(p["vertical_rails"], _cross_rails(c), _vertical_rails(c),
                      data_type="GEOMETRY")
     open_back = g.join([rails, _top_rail(c)])
-    panel = c.frame_sweep(g.mul(c.frame_x(), 2.0), p["solid_thickness"], 0.0, BACK_PANEL)
+    panel = c.frame_sweep(g.mul(c.frame_x, 2.0), p["solid_thickness"], 0.0, BACK_PANEL)
     return g.switch(p["backrest_solid"], open_back, panel, data_type="GEOMETRY")
 
 
@@ -289,15 +285,13 @@ class _Arm:
 
     def __init__(self, c: _Chair):
         g, p = c.g, c.p
-        self.x = c.frame_x()
+        self.x = c.frame_x
         self.back = sample_curve(g, curve=c.frame_curve,
                                  factor=p["armrest_back_height"])["Position"]
-        back_y = g.separate(self.back)["Y"]
         # between the back corner (edge 0) and the mirrored front corner (edge 1): the
         # segment lies inside the (convex, symmetric) seat for every roundness
         corner_y = g.sub(c.corner_y, g.mul(p["frame_depth"], 0.5))
         self.front_y = g.lerp(corner_y, g.mul(corner_y, -1.0), p["armrest_edge"])
-        self.back_y = back_y
         self.seat_point = g.combine(self.x, self.front_y, c.inside)
 
 

@@ -7,8 +7,7 @@ import pytest
 
 pytest.importorskip("bpy")
 
-from geocode.nodes import Evaluator, Graph, sample_curve_array  # noqa: E402
-from geocode.nodes import frames, parts  # noqa: E402
+from geocode.nodes import Evaluator, Graph, frames, parts, sample_curve_array  # noqa: E402
 from geocode.nodes.profiles import rectangle_fillet  # noqa: E402
 
 pytestmark = pytest.mark.blender

@@ -11,8 +11,8 @@ from __future__ import annotations
 import math
 
 from geocode.nodes.curves import quadratic_cartesian, quadratic_polar
-from geocode.nodes.frames import aligned_bevel_xy, cushion as cushion_style, fixed_bottom, \
-    fixed_top, seat_frame
+from geocode.nodes.frames import aligned_bevel_xy, fixed_bottom, fixed_top, seat_frame
+from geocode.nodes.frames import cushion as cushion_style
 from geocode.nodes.graph import Graph
 from geocode.nodes.group import node_group
 from geocode.nodes.profiles import rectangle_fillet
