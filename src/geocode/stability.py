@@ -117,25 +117,122 @@ class _Part:
         return np.all((self.tri_lo <= hi + tol) & (self.tri_hi >= lo - tol), axis=1)
 
 
-def _pairs(pts: np.ndarray, tri: np.ndarray, reach: float) -> tuple[np.ndarray, np.ndarray]:
-    """(point, triangle) index pairs with the point within reach of the triangle's bounding
-    sphere about its centroid (radius r_t = farthest corner): |p - c_t| <= r_t + reach."""
-    centroid = tri.mean(1)
-    radius = np.sqrt(((tri - centroid[:, None]) ** 2).sum(2).max(1))
-    lists = cKDTree(pts).query_ball_point(centroid, radius + reach)
-    counts = np.fromiter((len(x) for x in lists), dtype=np.int64, count=len(lists))
-    if counts.sum() == 0:
+def _close_pairs(
+    x: np.ndarray, rx: np.ndarray, y: np.ndarray, ry: np.ndarray, reach: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Index pairs (i, j) with |x_i - y_j| <= rx_i + ry_j + reach (balls that come close).
+
+    One tree-tree query at the largest radii (scipy's sparse_distance_matrix, vectorised
+    output), then the exact per-pair bound."""
+    if len(x) == 0 or len(y) == 0:
         return np.empty(0, np.int64), np.empty(0, np.int64)
-    return np.concatenate(lists).astype(np.int64), np.repeat(np.arange(len(tri)), counts)
+    limit = float(rx.max() + ry.max() + reach)
+    found = cKDTree(x).sparse_distance_matrix(cKDTree(y), limit, output_type="ndarray")
+    i, j = found["i"].astype(np.int64), found["j"].astype(np.int64)
+    keep = found["v"] <= rx[i] + ry[j] + reach
+    return i[keep], j[keep]
 
 
-def _inside(p: _Part, q: _Part, tol: float) -> bool:
+def _ball(tri: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Centre (centroid) and radius (farthest corner) of each triangle's bounding ball."""
+    centre = (tri[:, 0] + tri[:, 1] + tri[:, 2]) / 3
+    d = tri - centre[:, None]
+    d = d * d
+    return centre, np.sqrt((d[..., 0] + d[..., 1] + d[..., 2]).max(1))
+
+
+def _pairs(pts: np.ndarray, tri: np.ndarray, reach: float) -> tuple[np.ndarray, np.ndarray]:
+    """(point, triangle) index pairs with the point within reach of the triangle's ball."""
+    centre, radius = _ball(tri)
+    return _close_pairs(pts, np.zeros(len(pts)), centre, radius, reach)
+
+
+def _split_segments(edges: np.ndarray, step: float) -> np.ndarray:
+    """Cut segments (E,2,3) into pieces no longer than step (their union is unchanged)."""
+    length = np.sqrt(((edges[:, 1] - edges[:, 0]) ** 2).sum(1))
+    pieces = np.maximum(1, np.ceil(length / step)).astype(np.int64)
+    if len(pieces) == 0 or pieces.max() == 1:
+        return edges
+    owner = np.repeat(np.arange(len(edges)), pieces)
+    k = np.arange(len(owner)) - np.repeat(np.cumsum(pieces) - pieces, pieces)
+    t0 = (k / pieces[owner])[:, None]
+    t1 = ((k + 1) / pieces[owner])[:, None]
+    start, d = edges[owner, 0], edges[owner, 1] - edges[owner, 0]
+    return np.stack([start + t0 * d, start + t1 * d], axis=1)
+
+
+def _split_triangles(
+    tri: np.ndarray, step: float, box: tuple[np.ndarray, np.ndarray], rounds: int = 16
+) -> np.ndarray:
+    """Bisect the longest edge of every triangle longer than step until none is (at most
+    `rounds` times), dropping pieces whose box misses `box`: the union inside the box is
+    unchanged, and the long sides of thin triangles get cut without making many pieces."""
+    done = []
+    for _ in range(rounds):
+        tri = tri[_in_region(tri.min(1), tri.max(1), box)]
+        e = tri[:, [1, 2, 0]] - tri  # (F,3,3): edge i runs from corner i to i+1
+        e = e * e
+        length = e[..., 0] + e[..., 1] + e[..., 2]  # squared; sum(axis=2) is slow here
+        big = length.max(1) > step * step
+        done.append(tri[~big])
+        tri = tri[big]
+        if len(tri) == 0:
+            break
+        i = length[big].argmax(1)
+        rows = np.arange(len(tri))
+        a, b, c = tri[rows, i], tri[rows, (i + 1) % 3], tri[rows, (i + 2) % 3]
+        m = (a + b) / 2
+        tri = np.concatenate([np.stack([a, m, c], 1), np.stack([m, b, c], 1)])
+    return np.concatenate([*done, tri])
+
+
+def _in_region(lo: np.ndarray, hi: np.ndarray, box: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+    return np.all((lo <= box[1]) & (hi >= box[0]), axis=1)
+
+
+class _Local:
+    """The geometry of p and q near each other: p's vertices and edges and q's triangles
+    inside the overlap of their boxes (grown by tol), with long edges and big triangles cut
+    to a common size so that each candidate search stays local. Built on first use."""
+
+    def __init__(self, p: _Part, q: _Part, tol: float):
+        self.p, self.q, self.tol = p, q, tol
+        self.box = (np.maximum(p.lo, q.lo) - tol, np.minimum(p.hi, q.hi) + tol)
+        self._pieces = None
+
+    @property
+    def points(self) -> np.ndarray:
+        return self.p.points[_in_region(self.p.points, self.p.points, self.box)]
+
+    def pieces(self) -> tuple[np.ndarray, np.ndarray]:
+        """(segments (S,2,3) of p, triangles (T,3,3) of q), both cut to one size."""
+        if self._pieces is None:
+            p, q, box = self.p, self.q, self.box
+            seg = p.edges[_in_region(p.edges.min(1), p.edges.max(1), box)]
+            tri = q.tri[_in_region(q.tri_lo, q.tri_hi, box)]
+            if len(seg) and len(tri):
+                # cut what is longer than 1/16 of the region (long edges, the long sides
+                # of thin triangles): their bounding balls would reach far too many others
+                step = float((box[1] - box[0]).max()) / 16
+                seg = _split_segments(seg, step)
+                seg = seg[_in_region(seg.min(1), seg.max(1), box)]
+                tri = _split_triangles(tri, step, box)
+            self._pieces = (seg, tri)
+        return self._pieces
+
+
+def _half_length(seg: np.ndarray) -> float:
+    return float(np.sqrt(((seg[:, 1] - seg[:, 0]) ** 2).sum(1).max())) / 2 if len(seg) else 0.0
+
+
+def _inside(local: _Local) -> bool:
     """Whether p's vertex nearest q's box centre lies inside closed q (|winding| > 1/2).
     A part wholly inside another touches no surface, so it needs this test; one point
-    suffices there, and the deepest candidate also catches most partial insertions."""
+    suffices there."""
+    p, q = local.p, local.q
     if not q.closed:
         return False
-    pts = p.points[q.in_box(p.points, tol)]
+    pts = local.points
     if len(pts) == 0:
         return False
     centre = (q.lo + q.hi) / 2
@@ -143,52 +240,20 @@ def _inside(p: _Part, q: _Part, tol: float) -> bool:
     return bool(abs(_winding_number(x[None], q.tri)[0]) > 0.5)
 
 
-def _near(p: _Part, q: _Part, tol: float) -> bool:
+def _near(local: _Local) -> bool:
     """Whether a vertex of p lies within tol of a triangle of q (exact point-triangle distance)."""
-    pts = p.points[q.in_box(p.points, tol)]
-    tri = q.tri[q.tri_near(p.lo, p.hi, tol)]
-    if len(pts) == 0 or len(tri) == 0:
-        return False
-    i, t = _pairs(pts, tri, tol)
-    return bool(len(i) and (_point_triangle_distance(pts[i], tri[t]) <= tol).any())
+    pts = local.points
+    if len(pts) == 0:
+        return False  # before pieces(): the cut is the costly part
+    tri = local.pieces()[1]
+    i, t = _pairs(pts, tri, local.tol)
+    return bool(len(i) and (_point_triangle_distance(pts[i], tri[t]) <= local.tol).any())
 
 
-def _split_segments(edges: np.ndarray, step: float) -> np.ndarray:
-    """Cut segments (E,2,3) into pieces no longer than step (their union is unchanged)."""
-    length = np.sqrt(((edges[:, 1] - edges[:, 0]) ** 2).sum(1))
-    pieces = np.maximum(1, np.ceil(length / step)).astype(np.int64)
-    if pieces.max() == 1:
-        return edges
-    owner = np.repeat(np.arange(len(edges)), pieces)
-    k = np.arange(len(owner)) - np.repeat(np.cumsum(pieces) - pieces, pieces)
-    t0 = (k / pieces[owner])[:, None]
-    t1 = ((k + 1) / pieces[owner])[:, None]
-    s, d = edges[owner, 0], edges[owner, 1] - edges[owner, 0]
-    return np.stack([s + t0 * d, s + t1 * d], axis=1)
-
-
-def _local_pieces(p: _Part, q: _Part, tol: float) -> tuple[np.ndarray, np.ndarray]:
-    """p's edges whose box meets q's box (grown by tol), cut to about the size of q's
-    triangles there, and those triangles: the inputs of the edge tests."""
-    lo, hi = p.edges.min(1), p.edges.max(1)
-    keep = np.all((lo <= q.hi + tol) & (hi >= q.lo - tol), axis=1)
-    tri = q.tri[q.tri_near(p.lo, p.hi, tol)]
-    if not keep.any() or len(tri) == 0:
-        return np.empty((0, 2, 3)), tri
-    size = np.sqrt(((tri[:, 1] - tri[:, 0]) ** 2).sum(1))
-    return _split_segments(p.edges[keep], max(float(np.median(size)), tol)), tri
-
-
-def _half_length(seg: np.ndarray) -> float:
-    return float(np.sqrt(((seg[:, 1] - seg[:, 0]) ** 2).sum(1).max())) / 2
-
-
-def _pierces(p: _Part, q: _Part, tol: float) -> bool:
+def _pierces(local: _Local) -> bool:
     """Whether an edge of p crosses a triangle of q (surfaces that intersect transversally
     always have such an edge, even when no vertex is near the other surface)."""
-    seg, tri = _local_pieces(p, q, tol)
-    if len(seg) == 0:
-        return False
+    seg, tri = local.pieces()
     i, t = _pairs(seg.mean(1), tri, _half_length(seg))
     return bool(len(i) and _segments_cross(seg[i, 0], seg[i, 1], tri[t]).any())
 
@@ -214,40 +279,43 @@ def _segment_distance(p0, p1, q0, q1) -> np.ndarray:
     return np.sqrt((gap * gap).sum(1))
 
 
-def _edges_near(p: _Part, q: _Part, tol: float) -> bool:
+def _edges_near(local: _Local) -> bool:
     """Whether an edge of p passes within tol of an edge of q's triangles. With the
     vertex-triangle and piercing tests this makes the surface distance exact: the
     distance between a segment and a triangle is attained at a segment end, at a crossing,
     or between the segment and a triangle edge (e.g. two stacked planks that cross)."""
-    seg, tri = _local_pieces(p, q, tol)
-    if len(seg) == 0:
+    seg, tri = local.pieces()
+    if len(seg) == 0 or len(tri) == 0:
         return False
     sides = np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
-    sides = _split_segments(sides, max(2 * _half_length(seg), tol))
-    mids = sides.mean(1)
-    reach = _half_length(seg) + _half_length(sides) + tol
-    lists = cKDTree(seg.mean(1)).query_ball_point(mids, reach)
-    counts = np.fromiter((len(x) for x in lists), dtype=np.int64, count=len(lists))
-    if counts.sum() == 0:
-        return False
-    i, j = np.concatenate(lists).astype(np.int64), np.repeat(np.arange(len(sides)), counts)
-    return bool((_segment_distance(seg[i, 0], seg[i, 1], sides[j, 0], sides[j, 1]) <= tol).any())
+    half_seg = np.sqrt(((seg[:, 1] - seg[:, 0]) ** 2).sum(1)) / 2
+    half_side = np.sqrt(((sides[:, 1] - sides[:, 0]) ** 2).sum(1)) / 2
+    i, j = _close_pairs(seg.mean(1), half_seg, sides.mean(1), half_side, local.tol)
+    dist = _segment_distance(seg[i, 0], seg[i, 1], sides[j, 0], sides[j, 1])
+    return bool((dist <= local.tol).any())
 
 
 def _touches(p: _Part, q: _Part, tol: float) -> bool:
-    """Whether the surfaces come within tol, or one part lies inside the other; the
-    cheap tests run first, each both ways."""
+    """Whether the surfaces come within tol, or one part lies inside the other. Each test
+    runs both ways; containment first: one winding number, and parts that are plugged
+    into each other (legs into a seat, handles into a body) pass it at once."""
     if not p.overlaps(q, tol):
         return False
+    both = (_Local(p, q, tol), _Local(q, p, tol))
     tests = (_inside, _near, _pierces, _edges_near)
-    return any(test(a, b, tol) for test in tests for a, b in ((p, q), (q, p)))
+    return any(test(local) for test in tests for local in both)
+
+
+WELD = 1e-3  # vertices closer than WELD * tol * diagonal are one vertex
 
 
 def _unique_edges(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Undirected edges (E,2) of a face array and how many faces use each."""
-    edges = np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
-    base = int(edges.max()) + 1
-    keys, counts = np.unique(edges[:, 0] * base + edges[:, 1], return_counts=True)
+    a = faces.reshape(-1)
+    b = faces[:, [1, 2, 0]].reshape(-1)
+    lo, hi = np.minimum(a, b), np.maximum(a, b)  # np.sort(axis=1) is slow for pairs
+    base = int(hi.max()) + 1
+    keys, counts = np.unique(lo * base + hi, return_counts=True)
     return np.stack([keys // base, keys % base], axis=1), counts
 
 
@@ -278,7 +346,9 @@ def _components(mesh: trimesh.Trimesh, tol: float) -> tuple[list[_Part], float]:
     vertices = np.asarray(mesh.vertices, dtype=np.float64)
     faces = np.asarray(mesh.faces, dtype=np.int64)
     eps = tol * float(np.linalg.norm(vertices.max(0) - vertices.min(0)))
-    welded = _merged_ids(vertices, eps)[faces]  # coincident duplicates count as shared
+    # weld only (near-)coincident duplicates: welding at tol would chain the vertices of a
+    # finely tessellated thin tube into a few points; nearby parts still join by touching
+    welded = _merged_ids(vertices, eps * WELD)[faces]
     n = len(vertices)
     r = np.concatenate([welded[:, 0], welded[:, 1]])
     c = np.concatenate([welded[:, 1], welded[:, 2]])
@@ -299,11 +369,11 @@ def loose_parts(mesh: trimesh.Trimesh, tol: float = 1e-3) -> int:
     """Number of connected components that do not belong to the largest touching group.
 
     `tol` is relative to the bounding-box diagonal d; the absolute tolerance is tol * d.
-    Components are face-connected groups after welding vertices closer than tol * d. Two
-    components touch when their surfaces come within tol * d (exactly: a vertex near a
-    triangle, an edge piercing a triangle, or two edges near each other) or one lies inside
-    the other (winding number > 1/2 of a vertex, where the other is closed). Groups are the connected components of the touching graph;
-    the answer is (number of components) - (components in the largest group), so 0 means
+    Components are face-connected groups after welding coincident vertices (closer than
+    WELD * tol * d). Two components touch when their surfaces come within tol * d (exactly:
+    a vertex near a triangle, an edge piercing a triangle, or two edges near each other) or
+    one lies inside the other (winding number > 1/2 of a vertex, where the other is
+    closed). Groups are the connected components of the touching graph; the answer is (number of components) - (components in the largest group), so 0 means
     every part holds on to the rest. Pairs whose boxes (grown by tol * d) miss are skipped.
     """
     if len(mesh.faces) == 0:
