@@ -229,7 +229,7 @@ def _inside(local: _Local) -> bool:
     """Whether p's vertex nearest q's box centre lies inside closed q (|winding| > 1/2).
     A part wholly inside another touches no surface, so it needs this test; one point
     suffices there."""
-    p, q = local.p, local.q
+    q = local.q
     if not q.closed:
         return False
     pts = local.points
