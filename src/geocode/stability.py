@@ -410,7 +410,7 @@ class DropConfig:
 
     drop: float = 0.05  # start with the lowest point this fraction of the height above the plane
     duration: float = 5.0  # s simulated at most
-    dt: float = 1e-3  # s per semi-implicit Euler step
+    dt: float = 2e-3  # s per semi-implicit Euler step (outcomes match 1e-3 on the tests)
     friction: float = 0.5  # Coulomb coefficient mu
     restitution: float = 0.2  # coefficient of restitution e of one bounce
     sink: float = 5e-4  # static penetration under the weight, as a fraction of the height
