@@ -432,22 +432,35 @@ class _Body:
     source: str  # "solid" (the mesh) or "convex_hull" (fallback for non-closed meshes)
 
 
+def _oriented_closed(faces: np.ndarray) -> bool:
+    """Every directed edge a->b occurs once and its reverse b->a occurs too: closed and
+    consistently wound (what a solid's mass integrals need)."""
+    a = faces.reshape(-1)
+    b = faces[:, [1, 2, 0]].reshape(-1)
+    base = int(faces.max()) + 1
+    fwd = np.sort(a * base + b)
+    if len(fwd) and np.any(fwd[1:] == fwd[:-1]):
+        return False
+    return bool(np.array_equal(fwd, np.sort(b * base + a)))
+
+
 def _mass_properties(mesh: trimesh.Trimesh) -> tuple[float, np.ndarray, np.ndarray, str]:
     """(mass, centre of mass, inertia about it, source) at unit density.
 
-    A closed, consistently wound mesh with positive volume uses its own solid mass
-    properties (overlapping closed parts count twice: uniform density per part). Anything
-    else uses its convex hull's solid: a documented approximation that keeps the centre of
-    mass inside the support geometry.
+    A closed, consistently wound mesh (after welding coincident vertices) with positive
+    volume uses its own solid mass properties (overlapping closed parts count twice:
+    uniform density per part). Anything else uses its convex hull's solid: a documented
+    approximation that keeps the centre of mass inside the support geometry.
     """
-    solid = mesh
-    if not mesh.is_volume:
-        merged = mesh.copy()
-        merged.merge_vertices()
-        solid = merged if merged.is_volume else mesh.convex_hull
-    source = "solid" if solid is not mesh.convex_hull else "convex_hull"
-    props = solid.mass_properties
-    return float(props.mass), np.asarray(props.center_mass), np.asarray(props.inertia), source
+    vertices = np.asarray(mesh.vertices, dtype=np.float64)
+    faces = np.asarray(mesh.faces, dtype=np.int64)
+    diag = float(np.linalg.norm(vertices.max(0) - vertices.min(0)))
+    if _oriented_closed(_merged_ids(vertices, WELD * 1e-3 * diag)[faces]):
+        props = trimesh.triangles.mass_properties(vertices[faces], density=1.0)
+        if props.volume > 0:
+            return float(props.mass), np.asarray(props.center_mass), props.inertia, "solid"
+    props = mesh.convex_hull.mass_properties
+    return float(props.mass), np.asarray(props.center_mass), props.inertia, "convex_hull"
 
 
 def _rigid_body(mesh: trimesh.Trimesh, cfg: DropConfig) -> tuple[_Body, np.ndarray]:
