@@ -20,7 +20,7 @@ from geocode.data import (
     load_sketch,
     load_split,
 )
-from geocode.recipe import load_manifest, Recipe
+from geocode.recipe import Recipe, load_manifest
 
 DOMAIN = "toy"
 CAMERAS = ["az35", "az55"]

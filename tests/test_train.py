@@ -6,10 +6,10 @@ import numpy as np
 import pandas as pd
 import pytest
 import torch
+from test_data import CAMERAS, DOMAIN, N_FPS, N_PICK, make_dataset
 
 from geocode.config import compose
 from geocode.train import CheckpointError, load_model, predict, predict_classes, train
-from test_data import CAMERAS, DOMAIN, N_FPS, N_PICK, make_dataset
 
 
 @pytest.fixture(scope="module")

@@ -1,6 +1,13 @@
 """Networks (SPEC §4): DGCNN and VGG encoders, per-parameter decoders, the LightningModule."""
 
-from geocode.models.dgcnn import DGCNN, DGCNNReference, edge_conv_fast, gather_neighbours, knn, knn_chunked
+from geocode.models.dgcnn import (
+    DGCNN,
+    DGCNNReference,
+    edge_conv_fast,
+    gather_neighbours,
+    knn,
+    knn_chunked,
+)
 from geocode.models.heads import Decoders, head_specs
 from geocode.models.module import VARIANTS, GeoCodeModule
 from geocode.models.vgg import VGGSketchEncoder
