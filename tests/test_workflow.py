@@ -37,19 +37,25 @@ def snakemake_cmd(*args: str) -> list[str]:
 
 
 def test_lint_is_clean(tmp_path):
-    result = snakemake(tmp_path, "--lint", check=False)
-    assert result.returncode == 0, result.stdout + result.stderr
+    """Clean but for one lint that does not apply: rules run in the project's own virtual
+    environment (scripts/setup.sh), not in per-rule conda environments."""
+    out = snakemake(tmp_path, "--lint", check=False)
+    lints = [line.strip() for line in (out.stdout + out.stderr).splitlines() if line.strip().startswith("* ")]
+    assert lints, "the linter printed nothing: is it still reading the workflow?"
+    assert {line for line in lints if "conda environment or container" not in line} == set()
 
 
 def test_paper_profile_plans_the_whole_dag(tmp_path):
-    out = snakemake(tmp_path, "-n", "results/tables", "--config", "profile=paper").stdout
+    out = snakemake(tmp_path, "-n", "results/tables", "--config", "profile=paper",
+                    "eval={variants: [joint, regression]}").stdout
+    assert "runs/paper/vase/regression/checkpoints/best.ckpt" in out
     for rule in ("program", "sample", "export", "sketch", "points", "train", "simplify",
                  "predict", "rebuild", "metrics", "tables"):
         assert f"rule {rule}:" in out or f"{rule} " in out, rule
 
 
 def test_bad_config_stops_before_any_job_with_one_line(tmp_path):
-    result = snakemake(tmp_path, "-n", "results/tables", "--config", "data.shards=0", check=False)
+    result = snakemake(tmp_path, "-n", "results/tables", "--config", "data={shards: 0}", check=False)
     assert result.returncode != 0
     assert "data.shards=0: give a whole number >= 1" in result.stdout + result.stderr
     assert not (tmp_path / "data").exists()

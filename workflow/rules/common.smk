@@ -9,21 +9,29 @@ from snakemake.exceptions import WorkflowError
 
 from geocode.config import ConfigError, compose, config_hash, domains, repo_root
 
+envvars:
+    "PATH",
+
+
 # Rules call the `geocode` command of the environment that runs Snakemake.
 os.environ["PATH"] = f"{Path(sys.executable).parent}{os.pathsep}{os.environ.get('PATH', '')}"
 
 
-def as_override(key, value):
+def as_overrides(key, value):
+    """Hydra overrides from one --config entry. Snakemake keys cannot hold dots, so a nested
+    key is given as YAML: --config train='{max_epochs: 5}' becomes train.max_epochs=5."""
+    if isinstance(value, dict):
+        return [o for k, v in value.items() for o in as_overrides(f"{key}.{k}", v)]
     if isinstance(value, bool):
         value = str(value).lower()
     elif isinstance(value, (list, tuple)):
         value = "[" + ",".join(str(v) for v in value) + "]"
     elif value is None:
         value = "null"
-    return f"{key}={value}"
+    return [f"{key}={value}"]
 
 
-OVERRIDES = [as_override(k, v) for k, v in {"profile": "mini", **config}.items()]
+OVERRIDES = [o for k, v in {"profile": "mini", **config}.items() for o in as_overrides(k, v)]
 try:
     CFG = compose(OVERRIDES)
 except ConfigError as exc:
@@ -62,3 +70,9 @@ def manifest(domain):
 
 def done_files(stage, domain, splits=SPLITS):
     return [f"{DATA}/{domain}/{split}/done/{stage}-{shard}.txt" for split in splits for shard in SHARDS]
+
+
+def eval_inputs(domain):
+    """Sketches and clouds of the test split and of its simplified copies."""
+    splits = ["test"] + [f"test-s{f}" for f in CFG.eval.simplify]
+    return done_files("sketch", domain, splits) + done_files("points", domain, splits)

@@ -20,11 +20,6 @@ rule simplify:
         "geocode simplify --factor {wildcards.factor} {params.args} > {log} 2>&1"
 
 
-def eval_inputs(domain):
-    splits = ["test"] + [f"test-s{f}" for f in CFG.eval.simplify]
-    return done_files("sketch", domain, splits) + done_files("points", domain, splits)
-
-
 rule predict:
     input:
         checkpoint=f"{RUNS}/{{domain}}/{{variant}}/checkpoints/best.ckpt",
