@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from geocode.stability import DropConfig, drop_test, is_stable, loose_parts
+from geocode.stability import DropConfig, bench_parts_mesh, drop_test, is_stable, loose_parts
 
 
 def _box(size, centre):
@@ -152,3 +152,10 @@ def test_stacked_crossing_planks_touch_only_along_edges():
     assert loose_parts(trimesh.util.concatenate([low, high])) == 0
     lifted = _box((0.2, 2.0, 0.1), (0, 0, 0.2))
     assert loose_parts(trimesh.util.concatenate([low, lifted])) == 1
+
+
+def test_fine_tubes_plugged_into_a_body():
+    """Nine thin tubes (ring spacing below tol) pierce a sphere; one moved off floats.
+    Guards against welding at tol, which would collapse each tube's rings."""
+    assert loose_parts(bench_parts_mesh()) == 0
+    assert loose_parts(bench_parts_mesh(detached=1)) == 1
