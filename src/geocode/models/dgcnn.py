@@ -87,16 +87,17 @@ class _NeighbourMaxSum(torch.autograd.Function):
     the max gradient to the arg-max rows only (no (P, k, O) gradient tensor)."""
 
     @staticmethod
-    def forward(ctx, b: torch.Tensor, flat: torch.Tensor, k: int):
+    def forward(ctx, b: torch.Tensor, flat: torch.Tensor, k: int, with_sum: bool):
         p = flat.numel() // k
         nb = b.index_select(0, flat).view(p, k, -1)  # (P, k, O)
+        total = nb.sum(dim=1) if with_sum else None
         if not ctx.needs_input_grad[0]:
-            return nb.amax(dim=1), nb.sum(dim=1)
+            return nb.amax(dim=1), total
         mx, arg = nb.max(dim=1)  # (P, O) each
         src = flat.view(p, k).gather(1, arg)  # (P, O) rows of b that won
         ctx.save_for_backward(src, flat)
         ctx.k, ctx.rows = k, b.shape[0]
-        return mx, nb.sum(dim=1)
+        return mx, total
 
     @staticmethod
     def backward(ctx, g_max: torch.Tensor, g_sum: torch.Tensor):
@@ -105,15 +106,17 @@ class _NeighbourMaxSum(torch.autograd.Function):
         grad.scatter_add_(0, src, g_max)
         if g_sum is not None:
             grad.index_add_(0, flat, g_sum.repeat_interleave(ctx.k, dim=0))  # (P*k, O) summed
-        return grad, None, None
+        return grad, None, None, None
 
 
-def neighbour_max_sum(b: torch.Tensor, flat: torch.Tensor, k: int) -> tuple[torch.Tensor, torch.Tensor]:
-    """(max_{j in N(i)} b_j, sum_{j in N(i)} b_j) for every point i.
+def neighbour_max_sum(
+    b: torch.Tensor, flat: torch.Tensor, k: int, with_sum: bool = True
+) -> tuple[torch.Tensor, torch.Tensor | None]:
+    """(max_{j in N(i)} b_j, sum_{j in N(i)} b_j or None) for every point i.
 
     Shapes: b (P, O) point rows, flat (P*k,) from `flat_neighbours` -> (P, O), (P, O).
     """
-    return _NeighbourMaxSum.apply(b, flat, k)
+    return _NeighbourMaxSum.apply(b, flat, k, with_sum)
 
 
 # ---------------------------------------------------------------- layers
@@ -196,7 +199,7 @@ def edge_conv_fast(
     gamma = bn.weight
     sign = torch.where(gamma < 0, -1.0, 1.0).to(b.dtype).detach()  # (O,)
     flat = flat_neighbours(idx)  # (B*N*k,)
-    nb_max, nb_sum = neighbour_max_sum(b * sign, flat, k)  # (B*N, O) each
+    nb_max, nb_sum = neighbour_max_sum(b * sign, flat, k, bn.training)  # (B*N, O) each
     extreme = nb_max * sign  # (B*N, O): max_j b_j, or min_j b_j where g < 0
     if bn.training:
         mean, var = _edge_stats(a, b, nb_sum * sign, flat, k)
