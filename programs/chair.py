@@ -100,8 +100,8 @@ def _parameters(g: Graph) -> dict:
     add("cross_rail_count", "int", 2, 1, 4, "number of cross rails")
     add("cross_rail_thickness_y", "float", 0.02, 0.01, 0.03, "cross rail depth")
     add("cross_rail_thickness_z", "float", 0.04, 0.02, 0.08, "cross rail height")
-    add("cross_rail_bottom_offset", "float", 0.3, 0.1, 0.5, "lowest cross rail (share of frame)")
-    add("cross_rail_top_offset", "float", 0.7, 0.3, 0.9, "highest cross rail (share of frame)")
+    add("cross_rail_bottom_offset", "float", 0.3, 0.1, 0.5, "lowest cross rail (share of the backrest)")
+    add("cross_rail_top_offset", "float", 0.7, 0.3, 0.9, "highest cross rail (share of the backrest)")
     add("cross_rail_roundness", "float", 0.0, 0.0, 1.0, "cross rail profile: square to round")
     add("vertical_rail_count", "int", 3, 1, 5, "number of vertical rails")
     add("vertical_rail_size", "float", 0.025, 0.01, 0.04, "width of a vertical rail")
@@ -118,7 +118,7 @@ def _parameters(g: Graph) -> dict:
     add("armrest_width", "float", 0.04, 0.02, 0.07, "width of an armrest")
     add("armrest_height", "float", 0.03, 0.02, 0.05, "height of an armrest's profile")
     add("armrest_roundness", "float", 0.0, 0.0, 1.0, "armrest profile: square to round")
-    add("armrest_back_height", "float", 0.5, 0.35, 0.8, "attachment on the frame (share)")
+    add("armrest_back_height", "float", 0.5, 0.35, 0.8, "attachment on the frame (share of the backrest)")
     add("armrest_front_height", "float", 1.0, 0.7, 1.3, "front height / back height")
     add("armrest_mid", "float", 0.0, -0.6, 0.6, "where a loop armrest bulges (angle)")
     add("armrest_edge", "float", 0.8, 0.6, 1.0, "front attachment along the seat side")
@@ -144,6 +144,14 @@ class _Chair:
         self.frame_curve, self.frame = self._frame()
 
     # -- backrest frame -------------------------------------------------------------------
+
+    def above_seat(self, share):
+        """The frame's factor at `share` of its part above the seat's top (the frame starts
+        inside the slab), so attachments never vanish into the seat."""
+        g, p = self.g, self.p
+        sunk = g.mul(p["seat_thickness"], SINK)
+        start = g.div(sunk, g.add(p["backrest_height"], sunk))
+        return g.lerp(start, 1.0, share)
 
     def _frame(self):
         g, p = self.g, self.p
@@ -235,8 +243,9 @@ def _tent_legs(c: _Chair, foot):
 def _cross_rails(c: _Chair):
     g, p = c.g, c.p
     points = sample_curve_array(g, curve=c.frame_curve, count=p["cross_rail_count"],
-                                start_margin=p["cross_rail_bottom_offset"],
-                                end_margin=g.sub(1.0, p["cross_rail_top_offset"]))["Points"]
+                                start_margin=c.above_seat(p["cross_rail_bottom_offset"]),
+                                end_margin=g.sub(1.0, c.above_seat(p["cross_rail_top_offset"])),
+                                )["Points"]
     return cross_rail(g, points=points, half_length=c.frame_x,
                       thickness_y=p["cross_rail_thickness_y"],
                       thickness_z=p["cross_rail_thickness_z"],
@@ -287,7 +296,7 @@ class _Arm:
         g, p = c.g, c.p
         self.x = c.frame_x
         self.back = sample_curve(g, curve=c.frame_curve,
-                                 factor=p["armrest_back_height"])["Position"]
+                                 factor=c.above_seat(p["armrest_back_height"]))["Position"]
         # between the back corner (edge 0) and the mirrored front corner (edge 1): the
         # segment lies inside the (convex, symmetric) seat for every roundness
         corner_y = g.sub(c.corner_y, g.mul(p["frame_depth"], 0.5))
