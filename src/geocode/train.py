@@ -84,7 +84,7 @@ def build_datamodule(cfg: DictConfig, recipe):
         cameras=camera_names(cfg),
         n_random=int(cfg.data.points.train_random),
         batch_size=int(t.batch_size),
-        num_workers=int(t.num_workers),
+        num_workers=int(t.get("num_workers", 0)),
         augment=SketchAugment(**aug),
         eval_camera=t.get("eval_camera"),
     )
