@@ -13,8 +13,7 @@ import numpy as np
 from PIL import Image, ImageDraw
 
 from geocode import meshio
-from geocode.blender.progress import quiet_stdout
-from geocode.blender.sketch import MARGIN, Camera, camera_location, set_mesh_data
+from geocode.blender.sketch import MARGIN, Camera, camera_location, render_still, set_mesh_data
 
 log = logging.getLogger(__name__)
 
@@ -116,15 +115,7 @@ class ShadedRenderer:
         """Normalise `mesh` to the unit sphere and render it to `out_png` (atomically)."""
         self.set_mesh(meshio.normalise_unit_sphere(mesh))
         with meshio.atomic_path(out_png) as tmp:
-            png = Path(str(tmp) + ".png")
-            self.scene.render.filepath = str(png)
-            self.scene.render.use_file_extension = False
-            try:
-                with quiet_stdout():
-                    self.bpy.ops.render.render(write_still=True, scene=self.scene.name)
-                png.replace(tmp)
-            finally:
-                png.unlink(missing_ok=True)
+            render_still(self.scene, tmp).replace(tmp)
 
 
 _RENDERER: ShadedRenderer | None = None

@@ -231,15 +231,28 @@ class SketchRenderer:
         """Render one view to `out_path` (written to a temporary name, then renamed)."""
         self.aim(camera)
         with meshio.atomic_path(out_path) as tmp:
-            png = Path(str(tmp) + ".png")   # Blender appends the extension it wants
-            self.scene.render.filepath = str(png)
-            self.scene.render.use_file_extension = False
+            png = render_still(self.scene, tmp)
             try:
-                with quiet_stdout():
-                    self.bpy.ops.render.render(write_still=True, scene=self.scene.name)
                 Path(tmp).write_bytes(png_pixels_only(png.read_bytes()))
             finally:
                 png.unlink(missing_ok=True)
+
+
+def render_still(scene, tmp: Path) -> Path:
+    """Render `scene` to a PNG beside `tmp` and return its path. Ctrl-C reaches Blender first
+    and cancels the render, which then returns without raising: treat that as the
+    interruption it is, so that a blank image never takes a finished file's name."""
+    import bpy
+
+    png = Path(str(tmp) + ".png")   # Blender appends the extension it wants
+    scene.render.filepath = str(png)
+    scene.render.use_file_extension = False
+    with quiet_stdout():
+        result = bpy.ops.render.render(write_still=True, scene=scene.name)
+    if result != {"FINISHED"}:
+        png.unlink(missing_ok=True)
+        raise KeyboardInterrupt(f"render of {scene.name} ended {sorted(result)}")
+    return png
 
 
 _RENDERERS: dict[tuple, SketchRenderer] = {}
