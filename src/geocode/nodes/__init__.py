@@ -22,14 +22,15 @@ from geocode.nodes.styles import leg, middle_expand_contract, rail, solidify, sw
 from geocode.nodes.symmetry import mirror, radial
 from geocode.nodes.utils import align_curve_tilt_to_axis, align_curve_to_start_point
 
-BLOCKS: dict[str, NodeGroup] = {block.name: block for block in (
-    rectangle_fillet,
-    quadratic_polar, quadratic_cartesian, bezier_segment, arc, handle,
-    sweep, rail, leg, middle_expand_contract, solidify,
-    sample_curve, sample_curve_array, sample_points,
-    radial, mirror,
-    align_curve_to_start_point, align_curve_tilt_to_axis,
-)}
+from geocode.nodes import curves, frames, parts, profiles, sampling, styles, symmetry, utils  # noqa: E402
+
+# Every block of every catalogue module, by its node-group name (parts.leg is "MeshLeg",
+# styles.leg "StyleLeg"); a new block in these modules is listed without further edits.
+BLOCKS: dict[str, NodeGroup] = {
+    value.name: value
+    for module in (profiles, curves, frames, styles, sampling, symmetry, utils, parts)
+    for value in vars(module).values() if isinstance(value, NodeGroup)
+}
 
 __all__ = [
     "BLOCKS", "PART_ATTRIBUTE", "Evaluator", "Graph", "Node", "NodeGroup", "node_group",
