@@ -35,18 +35,18 @@ def knn(x: torch.Tensor, k: int) -> torch.Tensor:
 def knn_chunked(x: torch.Tensor, k: int, chunk_bytes: int = KNN_CHUNK_BYTES) -> torch.Tensor:
     """`knn` on point-major features, a few clouds at a time (bounded memory).
 
-    Ranks by s(i, j) = 2 x_i.x_j - ||x_j||^2 (= -||x_i - x_j||^2 + ||x_i||^2, the
-    added term is constant per row), one fused `baddbmm` per block.
+    Ranks by s(i, j) = [x_i, 1] . [2 x_j, -||x_j||^2] = -||x_i - x_j||^2 + ||x_i||^2 (the
+    added term is constant per row): one plain `bmm` per block, no broadcast copy.
 
     Shapes: x (B, N, C) -> (B, N, k) int64.
     """
     b, n, _ = x.shape
     step = max(1, chunk_bytes // (n * n * x.element_size()))
-    sq = (x * x).sum(dim=2).unsqueeze(1)  # (B, 1, N)
+    left = torch.cat([x, x.new_ones(b, n, 1)], dim=2)  # (B, N, C+1)
+    right = torch.cat([2 * x, -(x * x).sum(dim=2, keepdim=True)], dim=2)  # (B, N, C+1)
     out = []
     for s in range(0, b, step):
-        xs = x[s : s + step]  # (b', N, C)
-        score = torch.baddbmm(-sq[s : s + step], xs, xs.transpose(1, 2), alpha=2)  # (b', N, N)
+        score = torch.bmm(left[s : s + step], right[s : s + step].transpose(1, 2))  # (b', N, N)
         out.append(score.topk(k, dim=-1, sorted=False).indices)  # (b', N, k)
     return torch.cat(out)  # (B, N, k)
 
