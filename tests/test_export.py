@@ -137,7 +137,7 @@ def _vase_or_skip():
             pytest.skip(f"programs/{name} is not written yet")
     pytest.importorskip("bpy")
     program = export.load_program("vase")
-    return program, export.load_recipe(program)
+    return program, program.recipe()
 
 
 @pytest.mark.blender

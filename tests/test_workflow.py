@@ -102,8 +102,11 @@ def test_interrupted_dataset_run_resumes_to_identical_outputs(smoke_run, tmp_pat
     """Kill snakemake while it exports and renders, run it again: the same bytes as the run
     that was never interrupted."""
     target = "data/smoke/vase/dataset.done"
+    # As in a terminal: SIGINT handled by default even where the test runner was started
+    # in the background (which makes a shell ignore SIGINT in what it starts).
     proc = subprocess.Popen(snakemake_cmd("-j2", target, *SMOKE), cwd=tmp_path,
-                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     sketches = tmp_path / "data" / "smoke" / "vase"
     deadline = time.time() + 300
     while time.time() < deadline and len(list(sketches.rglob("*.png"))) < 5 and proc.poll() is None:

@@ -132,14 +132,9 @@ def cmd_programs(args):
 
 
 def cmd_program_show(args):
-    from geocode.config import repo_root
     from geocode.program import Program
-    from geocode.recipe import Recipe
 
-    program = Program.load(args.domain)
-    recipe_path = repo_root() / "programs" / f"{args.domain}.yaml"
-    recipe = Recipe.load(recipe_path, program.parameters, program.visibility())
-    shown = {"domain": args.domain, "parameters": recipe.describe()}
+    shown = {"domain": args.domain, "parameters": Program.load(args.domain).recipe().describe()}
     if args.json:
         return shown
     return "\n".join(
@@ -234,9 +229,11 @@ def cmd_sample(args):
 def cmd_export(args):
     from geocode.blender.export import export_shard
     from geocode.config import data_dir
+    from geocode.dataset import load_recipe
 
     cfg = step_config(args)
-    export_shard(data_dir(cfg, cfg.domain.name, args.split), args.shard, cfg.domain.name)
+    export_shard(data_dir(cfg, cfg.domain.name, args.split), args.shard, cfg.domain.name,
+                 recipe=load_recipe(cfg))
 
 
 def cmd_sketch(args):

@@ -21,6 +21,16 @@ def repo_root() -> Path:
     return Path(__file__).resolve().parents[2]
 
 
+PROGRAMS_ENV = "GEOCODE_PROGRAMS"
+
+
+def programs_dir() -> Path:
+    """The shape programs: `$GEOCODE_PROGRAMS`, else `programs/` at the repository root."""
+    if override := os.environ.get(PROGRAMS_ENV):
+        return Path(override)
+    return repo_root() / "programs"
+
+
 def compose(overrides: Sequence[str] = ()) -> DictConfig:
     """The composed config, as `geocode <step> key=value ...` and the Snakefile both see it."""
     from hydra import compose as hydra_compose
@@ -64,8 +74,7 @@ def domains(cfg: DictConfig) -> list[str]:
     """The domains the workflow runs: `domains` from config, or every program with a recipe."""
     if cfg.domains:
         return list(cfg.domains)
-    programs = repo_root() / "programs"
-    return sorted(p.stem for p in programs.glob("*.py") if p.with_suffix(".yaml").exists())
+    return sorted(p.stem for p in programs_dir().glob("*.py") if p.with_suffix(".yaml").exists())
 
 
 def data_dir(cfg: DictConfig, domain: str, split: str) -> Path:

@@ -22,11 +22,12 @@ def manifest_path(cfg: DictConfig, domain: str) -> Path:
     return Path(cfg.paths.build) / "programs" / f"{domain}.manifest.json"
 
 
-def load_recipe(cfg: DictConfig, domain: str | None = None) -> Recipe:
-    """The recipe of a domain, checked against the parameters its program exposes."""
-    domain = domain or cfg.domain.name
+def load_recipe(cfg: DictConfig) -> Recipe:
+    """The recipe of cfg.domain (`domain.recipe`, relative to the repository), checked against
+    the parameters in its program's manifest."""
+    domain = cfg.domain.name
     parameters, visibility = load_manifest(manifest_path(cfg, domain))
-    return Recipe.load(repo_root() / "programs" / f"{domain}.yaml", parameters, visibility)
+    return Recipe.load(repo_root() / cfg.domain.recipe, parameters, visibility)
 
 
 def spread_subset(frame: pd.DataFrame, keep: int | None) -> pd.DataFrame:
@@ -39,7 +40,7 @@ def spread_subset(frame: pd.DataFrame, keep: int | None) -> pd.DataFrame:
 
 def sample_step(cfg: DictConfig) -> str:
     domain = cfg.domain.name
-    recipe = load_recipe(cfg, domain)
+    recipe = load_recipe(cfg)
     splits = sample_dataset(recipe, dict(cfg.data.variations), seed=cfg.seed, domain=domain)
     counts = []
     for split in SPLITS:

@@ -113,7 +113,7 @@ def predict_step(cfg: DictConfig, domain: str, checkpoint: Path, out: Path) -> s
     from geocode.dataset import load_recipe
     from geocode.train import load_model, predict_classes
 
-    recipe = load_recipe(cfg, domain)
+    recipe = load_recipe(cfg)
     model = load_model(checkpoint)
     ids = test_ids(cfg, domain)
     frames = []

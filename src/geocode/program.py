@@ -23,23 +23,15 @@ from types import ModuleType
 import numpy as np
 import trimesh
 
+from geocode.config import PROGRAMS_ENV, programs_dir  # noqa: F401 (PROGRAMS_ENV re-exported)
 from geocode.expr import Expr
 from geocode.recipe import Parameter
 
-PROGRAMS_ENV = "GEOCODE_PROGRAMS"
 AXES = ("x", "y", "z")
 _KINDS = {"NodeSocketBool": "bool", "NodeSocketInt": "int", "NodeSocketFloat": "float",
           "NodeSocketVector": "vector"}
 _UNBOUNDED = 1e30  # Blender's default socket range is +-3.4e38: treat as "not given"
 _LOADED: dict[str, Program] = {}  # by program file: one build per process
-
-
-def programs_dir() -> Path:
-    """`$GEOCODE_PROGRAMS`, else `programs/` at the repository root."""
-    override = os.environ.get(PROGRAMS_ENV)
-    if override:
-        return Path(override)
-    return Path(__file__).resolve().parents[2] / "programs"
 
 
 def registry() -> list[str]:
@@ -150,6 +142,12 @@ class Program:
             self._visibility = {p.name: rules.get(_input_of(p.name, self._inputs))
                                 for p in self.parameters}
         return dict(self._visibility)
+
+    def recipe(self):
+        """The recipe `<programs>/<domain>.yaml`, checked against this program's parameters."""
+        from geocode.recipe import Recipe
+
+        return Recipe.load(programs_dir() / f"{self.domain}.yaml", self.parameters, self.visibility())
 
     def manifest(self) -> dict:
         rules = self.visibility()

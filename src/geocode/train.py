@@ -19,6 +19,7 @@ import pytorch_lightning as pl
 import torch
 from omegaconf import DictConfig, OmegaConf
 
+from geocode.dataset import load_recipe
 from geocode.models.bench import bench_train
 from geocode.models.module import GeoCodeModule
 
@@ -32,20 +33,6 @@ class CheckpointError(ValueError):
 
 
 # ---------------------------------------------------------------- config helpers
-
-
-def load_domain_recipe(cfg: DictConfig):
-    """The recipe of cfg.domain: programs/<domain>.yaml against the built manifest."""
-    from geocode.config import repo_root
-    from geocode.recipe import Recipe, load_manifest
-
-    domain = cfg.domain.name
-    manifest = Path(cfg.paths.build) / "programs" / f"{domain}.manifest.json"
-    recipe_path = Path(cfg.domain.get("recipe") or f"programs/{domain}.yaml")
-    if not recipe_path.is_absolute():
-        recipe_path = repo_root() / recipe_path
-    parameters, visibility = load_manifest(manifest)
-    return Recipe.load(recipe_path, parameters, visibility)
 
 
 def camera_names(cfg: DictConfig) -> list[str]:
@@ -117,7 +104,7 @@ def train(cfg: DictConfig, out_dir: str | Path | None = None) -> dict:
     ckpt_dir = out / "checkpoints"
     out.mkdir(parents=True, exist_ok=True)
     pl.seed_everything(int(cfg.seed), workers=True)
-    recipe = load_domain_recipe(cfg)
+    recipe = load_recipe(cfg)
     model = build_model(cfg, recipe)
     data = build_datamodule(cfg, recipe)
     last = ckpt_dir / "last.ckpt"

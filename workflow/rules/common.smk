@@ -7,7 +7,7 @@ from pathlib import Path
 
 from snakemake.exceptions import WorkflowError
 
-from geocode.config import ConfigError, compose, config_hash, domains, repo_root
+from geocode.config import ConfigError, compose, config_hash, domains, programs_dir
 
 envvars:
     "PATH",
@@ -46,7 +46,7 @@ DATA = CFG.paths.data
 RUNS = CFG.paths.runs
 BUILD = CFG.paths.build
 LOGS = f"logs/{PROFILE}"
-PROGRAMS = repo_root() / "programs"
+PROGRAMS = programs_dir()
 VARIANTS = list(CFG.eval.variants)
 # A GPU per training job where the config asks for one (accelerator=auto declares none).
 GPUS = 1 if CFG.train.accelerator in ("gpu", "cuda") else 0

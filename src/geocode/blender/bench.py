@@ -36,7 +36,7 @@ def bench_dataset(domain: str, n: int = 12) -> dict[str, float]:
     """{"export_shapes_per_s", "sketch_views_per_s", "clouds_per_s"} on n random shapes of the
     domain (one process, as a shard runs). clouds_per_s is NaN until geocode.points exists."""
     program = export.load_program(domain)
-    recipe = export.load_recipe(program)
+    recipe = program.recipe()
     rows = export.random_rows(program, n)
     with tempfile.TemporaryDirectory() as tmp:
         start = time.perf_counter()

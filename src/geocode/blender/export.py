@@ -28,15 +28,6 @@ def load_program(domain: str):
     return Program.load(domain)
 
 
-def load_recipe(program):
-    """The recipe `programs/<domain>.yaml` read against the program's parameters."""
-    from geocode.config import repo_root
-    from geocode.recipe import Recipe
-
-    path = repo_root() / "programs" / f"{program.domain}.yaml"
-    return Recipe.load(path, program.parameters, program.visibility())
-
-
 def unit_mesh(program, values: Mapping[str, float]):
     """Evaluate and normalise to the unit sphere; part labels stay in metadata["part"]."""
     return meshio.normalise_unit_sphere(program.evaluate(values))
@@ -98,7 +89,7 @@ def export_shard(split_dir: str | Path, shard: int, domain: str, program=None, r
     `recipe` default to the domain's (tests pass doubles). Returns the done file."""
     split_dir = Path(split_dir)
     program = program or load_program(domain)
-    recipe = recipe or load_recipe(program)
+    recipe = recipe or program.recipe()
     rows = list(shard_rows(split_dir / "recipes.parquet", shard))
     shapes_dir = split_dir / "shapes"
     progress = Progress(f"export {domain} shard {shard}", len(rows), log)
@@ -121,7 +112,7 @@ def random_rows(program, n: int, seed: int = 0) -> list[tuple[str, dict[str, flo
 def bench_export(domain: str, n: int = 20, program=None, recipe=None) -> float:
     """Shapes per second through `export_shape` (evaluate, normalise, four files)."""
     program = program or load_program(domain)
-    recipe = recipe or load_recipe(program)
+    recipe = recipe or program.recipe()
     rows = random_rows(program, n)
     with tempfile.TemporaryDirectory() as tmp:
         start = time.perf_counter()

@@ -6,6 +6,7 @@ A block is a `NodeGroup`; call it inside a builder to add an instance:
     profile = rectangle_fillet(g, width=2, height=2, roundness=r)["Curve"]
 """
 
+from geocode.nodes import curves, frames, parts, profiles, sampling, styles, symmetry, utils  # noqa: E402
 from geocode.nodes.curves import (
     arc,
     bezier_segment,
@@ -21,8 +22,6 @@ from geocode.nodes.sampling import sample_curve, sample_curve_array, sample_poin
 from geocode.nodes.styles import leg, middle_expand_contract, rail, solidify, sweep
 from geocode.nodes.symmetry import mirror, radial
 from geocode.nodes.utils import align_curve_tilt_to_axis, align_curve_to_start_point
-
-from geocode.nodes import curves, frames, parts, profiles, sampling, styles, symmetry, utils  # noqa: E402
 
 # Every block of every catalogue module, by its node-group name (parts.leg is "MeshLeg",
 # styles.leg "StyleLeg"); a new block in these modules is listed without further edits.
