@@ -126,3 +126,19 @@ def test_renderer_survives_a_factory_reset(tmp_path):
     a = _render(_cube(), tmp_path, CAMS[0])
     bpy.ops.wm.read_factory_settings(use_empty=True)
     assert _render(_cube(), tmp_path, CAMS[0]) == a
+
+
+def test_ctrl_c_during_a_render_arrives_after_it_and_leaves_no_image(tmp_path):
+    """Freestyle would swallow a KeyboardInterrupt raised inside its shaders and 'finish' a
+    blank sketch; the signal must wait for the render and stop the caller before the rename."""
+    import os
+    import signal
+    import threading
+
+    cam = sketch.DEFAULT_CAMERAS[0]
+    _render(_sphere(), tmp_path, cam, "warm.png")
+    out = tmp_path / "interrupted.png"
+    threading.Timer(0.02, lambda: os.kill(os.getpid(), signal.SIGINT)).start()
+    with pytest.raises(KeyboardInterrupt):
+        sketch.sketch_mesh(_sphere(), {cam.name: out}, [cam])
+    assert not out.exists() and not list(tmp_path.glob(".*"))

@@ -12,6 +12,7 @@ import argparse
 import json
 import logging
 import os
+import signal
 import sys
 from pathlib import Path
 
@@ -19,6 +20,9 @@ USER_ERRORS = (ValueError, FileNotFoundError, KeyError)
 
 
 def main(argv: list[str] | None = None) -> int:
+    # A terminated step (Snakemake stops its jobs with SIGTERM) unwinds like Ctrl-C, so that
+    # temporary files are removed and nothing half-written is left behind.
+    signal.signal(signal.SIGTERM, lambda *_: sys.exit(128 + signal.SIGTERM))
     args = parser().parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s: %(message)s",
                         datefmt="%H:%M:%S", stream=sys.stderr)

@@ -25,8 +25,10 @@ from __future__ import annotations
 import hashlib
 import logging
 import math
+import signal
 import struct
 from collections.abc import Iterable, Mapping, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -238,20 +240,39 @@ class SketchRenderer:
                 png.unlink(missing_ok=True)
 
 
+@contextmanager
+def signals_deferred():
+    """Deliver SIGINT and SIGTERM only when the block ends. Freestyle runs Python stroke
+    shaders in the middle of a render: a KeyboardInterrupt raised there is swallowed and the
+    render 'finishes' without strokes, so a blank image would take a finished file's name.
+    Deferred, the signal arrives right after the render, before anything is renamed."""
+    caught: list[int] = []
+    previous = {sig: signal.signal(sig, lambda signum, _: caught.append(signum))
+                for sig in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+        if caught:
+            signal.raise_signal(caught[0])
+
+
 def render_still(scene, tmp: Path) -> Path:
-    """Render `scene` to a PNG beside `tmp` and return its path. Ctrl-C reaches Blender first
-    and cancels the render, which then returns without raising: treat that as the
-    interruption it is, so that a blank image never takes a finished file's name."""
+    """Render `scene` to a PNG beside `tmp` and return its path (the caller removes it)."""
     import bpy
 
     png = Path(str(tmp) + ".png")   # Blender appends the extension it wants
     scene.render.filepath = str(png)
     scene.render.use_file_extension = False
-    with quiet_stdout():
-        result = bpy.ops.render.render(write_still=True, scene=scene.name)
-    if result != {"FINISHED"}:
+    try:
+        with quiet_stdout(), signals_deferred():
+            result = bpy.ops.render.render(write_still=True, scene=scene.name)
+        if result != {"FINISHED"}:
+            raise KeyboardInterrupt(f"render of {scene.name} ended {sorted(result)}")
+    except BaseException:
         png.unlink(missing_ok=True)
-        raise KeyboardInterrupt(f"render of {scene.name} ended {sorted(result)}")
+        raise
     return png
 
 
