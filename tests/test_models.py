@@ -104,8 +104,12 @@ def test_regression_head_loss_and_classes():
     target = torch.tensor([4, 0, 3])  # invisible, 0.0, 1.0
     pred = torch.tensor([[0.9, 1.0], [0.0, 0.0], [1.0, 0.0]])
     assert regression_loss(pred, target, spec).item() == pytest.approx(0.0)
-    pred_bad = torch.tensor([[0.0, 0.0], [0.0, 0.0], [1.0, 0.0]])  # says visible for the hidden one
-    assert regression_loss(pred_bad, target, spec).item() == pytest.approx(1 / 3)
+    # says visible for the hidden one: its value counts against the existence label -1
+    pred_bad = torch.tensor([[0.0, 0.0], [0.0, 0.0], [1.0, 0.0]])
+    assert regression_loss(pred_bad, target, spec).item() == pytest.approx(1 / 3 + 1 / 3)
+    # predicted invisible: the value's error is not collected, only the existence score's
+    hidden = torch.tensor([[0.5, 0.9]])
+    assert regression_loss(hidden, torch.tensor([0]), spec).item() == pytest.approx(0.81)
     got = regression_classes(torch.tensor([[0.34, 0.2], [0.7, 0.6], [1.3, 0.0]]), spec)
     assert got.tolist() == [1, 4, 3]
 

@@ -102,16 +102,18 @@ def _n_values(spec: Mapping) -> int:
 
 
 def regression_loss(pred: torch.Tensor, target: torch.Tensor, spec: Mapping) -> torch.Tensor:
-    """MSE on the normalised value v = class / (n_values - 1) where the part is visible,
-    plus MSE of the existence score against [invisible] where the parameter can hide.
+    """The paper's regression ablation: MSE of the value against the normalised label
+    (class / (n_values - 1), or the existence label -1 where the part is invisible), plus MSE
+    of the existence score against [invisible]. Where the existence score predicts
+    invisible (> 0.5) the value's error is not collected.
 
     Shapes: pred (B, 1 or 2), target (B,) class indices -> ().
     """
     n_values = _n_values(spec)
     visible = target < n_values  # (B,)
-    value = target.clamp(max=n_values - 1).to(pred.dtype) / max(n_values - 1, 1)  # (B,)
-    err = (pred[:, 0] - value) ** 2 * visible  # (B,)
-    loss = err.sum() / visible.sum().clamp(min=1)
+    value = torch.where(visible, target.to(pred.dtype) / max(n_values - 1, 1), -1.0)  # (B,)
+    collect = pred[:, 1].detach() <= 0.5 if spec["existence"] else torch.ones_like(visible)  # (B,)
+    loss = ((pred[:, 0] - value) ** 2 * collect).sum() / collect.sum().clamp(min=1)
     if spec["existence"]:
         loss = loss + F.mse_loss(pred[:, 1], (~visible).to(pred.dtype))
     return loss
