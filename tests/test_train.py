@@ -80,3 +80,21 @@ def test_bad_checkpoints_fail_in_one_line(run, tmp_path):
     torch.save(ckpt, mismatched)
     with pytest.raises(CheckpointError, match="mismatched.ckpt: checkpoint does not fit"):
         load_model(mismatched)
+
+
+def test_majority_accuracy_is_the_most_frequent_train_class_scored_on_val(run):
+    from geocode.config import data_dir
+    from geocode.dataset import load_recipe
+    from geocode.sampling import load_recipes
+    from geocode.train import majority_accuracy
+
+    cfg, result = run
+    recipe = load_recipe(cfg)
+    train_c, val_c = (recipe.class_matrix(load_recipes(data_dir(cfg, DOMAIN, s) / "recipes.parquet"))
+                      for s in ("train", "val"))
+    per_parameter = []
+    for j in range(train_c.shape[1]):
+        values, counts = np.unique(train_c[:, j], return_counts=True)
+        per_parameter.append(np.mean(val_c[:, j] == values[counts.argmax()]))
+    assert result["majority_val_acc"] == pytest.approx(np.mean(per_parameter))
+    assert majority_accuracy(cfg, recipe) == result["majority_val_acc"]

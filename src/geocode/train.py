@@ -137,11 +137,24 @@ def train(cfg: DictConfig, out_dir: str | Path | None = None) -> dict:
         "best": str(ckpt_dir / "best.ckpt"),
         "last": str(last),
         "best_val_acc": None if score is None else float(score),
+        "majority_val_acc": majority_accuracy(cfg, recipe),
         "epochs": int(trainer.current_epoch),
         "resumed": resume is not None,
     }
     log.info("trained %s: %s", cfg.domain.name, result)
     return result
+
+
+def majority_accuracy(cfg: DictConfig, recipe) -> float:
+    """The bar a model must clear: mean top-1 accuracy over parameters on the val split of
+    always predicting each parameter's most frequent class in the train split."""
+    from geocode.config import data_dir
+    from geocode.sampling import load_recipes
+
+    classes = {split: recipe.class_matrix(load_recipes(data_dir(cfg, cfg.domain.name, split) / "recipes.parquet"))
+               for split in ("train", "val")}
+    common = np.array([np.bincount(column).argmax() for column in classes["train"].T])  # (P,)
+    return float((classes["val"] == common).mean())
 
 
 # ---------------------------------------------------------------- checkpoints
