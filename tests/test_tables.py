@@ -54,3 +54,13 @@ def test_write_tables_writes_every_format_and_an_index(tmp_path):
     assert csv.loc["vase", "pc"] == 0.002
     assert "[" in (tmp_path / "README.md").read_text()
     assert not list(tmp_path.glob(".*tmp"))                    # no temporary files left
+
+
+def test_ablations_compare_the_variants_that_were_trained():
+    rows = [row("pc", 0.001), row("sketch", 0.002, camera="az35"),
+            row("pc", 0.004, variant="regression"), row("sketch", 0.006, camera="az55", variant="regression"),
+            row("sketch", 0.5, camera="az15", variant="regression")]          # novel camera: not counted
+    table = build_tables(pd.DataFrame(rows), CAMERAS)["ablations"]
+    assert table.loc["vase joint (cls)", "pc"] == 0.001
+    assert table.loc["vase regression", "sketch"] == 0.006
+    assert np.isnan(table.loc["vase regression", "pc (paper)"])             # the paper's rows are the chair's
