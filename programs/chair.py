@@ -25,7 +25,6 @@ from __future__ import annotations
 import math
 
 from geocode.nodes import Graph, mirror, radial, rectangle_fillet, sample_curve, sample_curve_array
-from geocode.nodes.frames import aligned_bevel_xy, bezier_segment_style
 from geocode.nodes.parts import (
     cross_rail,
     cushion,
@@ -38,6 +37,7 @@ from geocode.nodes.parts import (
     straight_frame,
     top_rail,
 )
+from geocode.nodes.styles import aligned_bevel_xy, bezier_segment_style
 
 # part labels (segmentation)
 (SEAT, CUSHION, LEGS, BACK_FRAME, CROSS_RAILS, VERTICAL_RAILS, TOP_RAIL, BACK_PANEL,

@@ -7,14 +7,14 @@ import pytest
 
 pytest.importorskip("bpy")
 
-from geocode.nodes import Evaluator, Graph, frames, parts, sample_curve_array  # noqa: E402
+from geocode.nodes import Evaluator, Graph, curves, parts, sample_curve_array, styles  # noqa: E402
 from geocode.nodes.profiles import rectangle_fillet  # noqa: E402
 
 pytestmark = pytest.mark.blender
 
 PART = 7
-BLOCKS = [frames.fixed_top, frames.fixed_bottom, frames.fixed_middle, frames.seat_frame,
-          frames.cushion, frames.aligned_bevel_xy, frames.bezier_segment_style,
+BLOCKS = [curves.fixed_top, curves.fixed_bottom, curves.fixed_middle, styles.seat_frame,
+          styles.cushion, styles.aligned_bevel_xy, styles.bezier_segment_style,
           parts.seat, parts.cushion, parts.top_rail, parts.cross_rail, parts.straight_frame,
           parts.frame_fixed_bottom, parts.leg, parts.quadratic_polar_frame,
           parts.quadratic_cartesian_aligned_xy_frame, parts.quadratic_cartesian_mesh]
@@ -57,9 +57,9 @@ def test_every_part_block_is_documented_and_builds(blender):
 @pytest.mark.parametrize("curvature", [0.0, 1.0])
 def test_fixed_top_and_bottom_leave_their_fixed_end_vertically(blender, curvature):
     top, bottom = (0.1, 0.1, 1.0), (0.4, -0.2, 0.0)
-    hanging = _curve(lambda g: frames.fixed_top(g, top=top, bottom=bottom,
+    hanging = _curve(lambda g: curves.fixed_top(g, top=top, bottom=bottom,
                                                 curvature=curvature, resolution=32))
-    standing = _curve(lambda g: frames.fixed_bottom(g, bottom=bottom, top=top,
+    standing = _curve(lambda g: curves.fixed_bottom(g, bottom=bottom, top=top,
                                                     curvature=curvature, resolution=32))
     assert hanging[0] == pytest.approx(top, abs=1e-5)
     assert hanging[-1] == pytest.approx(bottom, abs=1e-5)
@@ -76,7 +76,7 @@ def test_fixed_top_and_bottom_leave_their_fixed_end_vertically(blender, curvatur
 
 def test_fixed_middle_keeps_its_middle_and_turns_its_ends_vertical(blender):
     start, end = (0.0, 0.0, 0.0), (0.4, 0.2, 1.0)
-    points = _curve(lambda g: frames.fixed_middle(g, start=start, end=end, curvature=1.0,
+    points = _curve(lambda g: curves.fixed_middle(g, start=start, end=end, curvature=1.0,
                                                   resolution=32))
     assert points[0] == pytest.approx(start, abs=1e-5)
     assert points[-1] == pytest.approx(end, abs=1e-5)
@@ -99,7 +99,7 @@ def _half_width_at(mesh, z, tol=1e-3):
 
 
 def test_bezier_segment_style_scales_from_start_to_end(blender):
-    mesh = _mesh(lambda g: frames.bezier_segment_style(
+    mesh = _mesh(lambda g: styles.bezier_segment_style(
         g, curve=_vertical_path(g), profile_curve=_square(g, 2.0), start=0.1,
         start_handle=0.1, end_handle=0.3, end=0.3, part=PART))
     assert _half_width_at(mesh, 0.0) == pytest.approx(0.1, abs=1e-4)
@@ -108,7 +108,7 @@ def test_bezier_segment_style_scales_from_start_to_end(blender):
 
 
 def test_seat_frame_rounds_both_ends_by_the_bevel(blender):
-    mesh = _mesh(lambda g: frames.seat_frame(g, curve=_vertical_path(g),
+    mesh = _mesh(lambda g: styles.seat_frame(g, curve=_vertical_path(g),
                                              profile_curve=_square(g), bevel=0.2, part=PART))
     assert _half_width_at(mesh, 0.5) == pytest.approx(0.5, abs=1e-4)
     assert _half_width_at(mesh, 0.0) == pytest.approx(0.4, abs=1e-4)
@@ -117,7 +117,7 @@ def test_seat_frame_rounds_both_ends_by_the_bevel(blender):
 
 def test_cushion_style_puffs_more_when_fuller(blender):
     def widths(fill):
-        mesh = _mesh(lambda g: frames.cushion(g, curve=_vertical_path(g),
+        mesh = _mesh(lambda g: styles.cushion(g, curve=_vertical_path(g),
                                               profile_curve=_square(g), fill=fill, part=PART))
         return [_half_width_at(mesh, z) for z in (0.0, 0.75, 1.0)]
 
@@ -131,7 +131,7 @@ def test_aligned_bevel_xy_pins_the_profile_to_the_axis_and_bevels_the_end(blende
     def mesh(axis, bevel=0.0):
         def build(g):
             profile = rectangle_fillet(g, width=0.2, height=0.04, resolution=2)["Curve"]
-            return frames.aligned_bevel_xy(g, curve=_vertical_path(g), profile_curve=profile,
+            return styles.aligned_bevel_xy(g, curve=_vertical_path(g), profile_curve=profile,
                                            axis=axis, bevel=bevel, part=PART)
         return _mesh(build)
 

@@ -6,7 +6,7 @@ A block is a `NodeGroup`; call it inside a builder to add an instance:
     profile = rectangle_fillet(g, width=2, height=2, roundness=r)["Curve"]
 """
 
-from geocode.nodes import curves, frames, parts, profiles, sampling, styles, symmetry, utils  # noqa: E402
+from geocode.nodes import curves, parts, profiles, sampling, styles, symmetry, utils  # noqa: E402
 from geocode.nodes.curves import (
     arc,
     bezier_segment,
@@ -27,7 +27,7 @@ from geocode.nodes.utils import align_curve_tilt_to_axis, align_curve_to_start_p
 # styles.leg "StyleLeg"); a new block in these modules is listed without further edits.
 BLOCKS: dict[str, NodeGroup] = {
     value.name: value
-    for module in (profiles, curves, frames, styles, sampling, symmetry, utils, parts)
+    for module in (profiles, curves, styles, sampling, symmetry, utils, parts)
     for value in vars(module).values() if isinstance(value, NodeGroup)
 }
 

@@ -2,6 +2,11 @@
 
 Every curve block returns a poly curve with a fixed number of points (`Resolution` + 1),
 so the meshes swept along it keep their topology when parameters change.
+
+Furniture frames add fixed-end paths: FixedTop / FixedBottom (a quadratic path that leaves one
+end vertically when `Curvature` is 1, the straight chord at 0: a leg hangs from a FixedTop, a
+support stands on a FixedBottom) and FixedMiddle (a cubic S-path whose ends turn vertical while
+its middle stays on the chord's midpoint).
 """
 
 from __future__ import annotations
@@ -139,3 +144,64 @@ def handle(g: Graph) -> None:
 def _sample_position(g: Graph, curve, factor):
     return g.node("GeometryNodeSampleCurve", {"Curves": curve, "Factor": factor},
                   mode="FACTOR", use_all_curves=False)["Position"]
+
+
+# -- fixed-end paths of furniture frames ---------------------------------------------------
+
+def _flat(g: Graph, vector):
+    """(x, y, 0) of a vector."""
+    xyz = g.separate(vector)
+    return g.combine(xyz["X"], xyz["Y"], 0.0)
+
+
+def _vertical_end_offset(g: Graph, fixed, other, curvature):
+    """QuadraticCartesian offset that puts the middle control point above/below `fixed`
+    (curvature 1) or on the chord (curvature 0): the path then leaves `fixed` vertically."""
+    return g.vmath("SCALE", _flat(g, g.vmath("SUBTRACT", fixed, other)), g.mul(curvature, 0.5))
+
+
+def _fixed_inputs(g: Graph, first: str, second: str, defaults):
+    a = g.input(first, "vector", default=defaults[0])
+    b = g.input(second, "vector", default=defaults[1])
+    curvature = g.input("Curvature", "float", default=1.0, min=0.0, max=1.0)
+    resolution = g.input("Resolution", "int", default=12, min=1, max=256)
+    return a, b, curvature, resolution
+
+
+@node_group("CurveFixedTop")
+def fixed_top(g: Graph) -> None:
+    """Path from `Top` down to `Bottom`; with `Curvature` 1 it leaves `Top` vertically and
+    bends out towards `Bottom` (a splayed leg), with 0 it is the straight chord."""
+    top, bottom, curvature, resolution = _fixed_inputs(g, "Top", "Bottom",
+                                                       ((0, 0, 1), (0.2, 0, 0)))
+    curve = quadratic_cartesian(g, start=top, end=bottom, resolution=resolution,
+                                offset=_vertical_end_offset(g, top, bottom, curvature))
+    g.output("Curve", "geometry", curve["Curve"])
+
+
+@node_group("CurveFixedBottom")
+def fixed_bottom(g: Graph) -> None:
+    """Path from `Bottom` up to `Top`; with `Curvature` 1 it rises vertically from `Bottom`
+    and bends over towards `Top`, with 0 it is the straight chord."""
+    bottom, top, curvature, resolution = _fixed_inputs(g, "Bottom", "Top",
+                                                       ((0, 0, 0), (0, 0.2, 1)))
+    curve = quadratic_cartesian(g, start=bottom, end=top, resolution=resolution,
+                                offset=_vertical_end_offset(g, bottom, top, curvature))
+    g.output("Curve", "geometry", curve["Curve"])
+
+
+@node_group("CurveFixedMiddle")
+def fixed_middle(g: Graph) -> None:
+    """Cubic path from `Start` to `End` through the chord's midpoint; `Curvature` turns both
+    ends vertical (an S-bend between two offset points), 0 gives the straight chord."""
+    start, end, curvature, resolution = _fixed_inputs(g, "Start", "End",
+                                                      ((0, 0, 0), (0.2, 0, 1)))
+    third = g.vmath("SCALE", g.vmath("SUBTRACT", end, start), 1.0 / 3.0)
+    rise = g.combine(0.0, 0.0, g.separate(third)["Z"])
+    start_handle = g.vmath("ADD", start, g.vmath("ADD", rise, g.vmath(
+        "SCALE", _flat(g, third), g.sub(1.0, curvature))))
+    end_handle = g.vmath("SUBTRACT", end, g.vmath("ADD", rise, g.vmath(
+        "SCALE", _flat(g, third), g.sub(1.0, curvature))))
+    curve = bezier_segment(g, start=start, start_handle=start_handle, end_handle=end_handle,
+                           end=end, resolution=resolution)
+    g.output("Curve", "geometry", curve["Curve"])

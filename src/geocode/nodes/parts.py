@@ -10,14 +10,13 @@ from __future__ import annotations
 
 import math
 
-from geocode.nodes.curves import quadratic_cartesian, quadratic_polar
-from geocode.nodes.frames import aligned_bevel_xy, fixed_bottom, fixed_top, seat_frame
-from geocode.nodes.frames import cushion as cushion_style
+from geocode.nodes.curves import fixed_bottom, fixed_top, quadratic_cartesian, quadratic_polar
 from geocode.nodes.graph import Graph
 from geocode.nodes.group import node_group
 from geocode.nodes.profiles import rectangle_fillet
+from geocode.nodes.styles import aligned_bevel_xy, middle_expand_contract, rail, seat_frame
+from geocode.nodes.styles import cushion as cushion_style
 from geocode.nodes.styles import leg as leg_style
-from geocode.nodes.styles import middle_expand_contract, rail
 from geocode.nodes.utils import align_curve_tilt_to_axis
 
 # fillet points per profile corner: small parts need few, the seat is seen up close

@@ -1,6 +1,12 @@
 """Styles: how a profile is scaled along a path when it is swept into a mesh (a triplet is
 path curve + profile curve + style -> mesh). Every style labels the faces it makes with its
-`Part` input (the integer attribute `part`)."""
+`Part` input (the integer attribute `part`).
+
+Besides the generic Sweep, Rail, Leg, MiddleExpandContract and Solidify, furniture styles:
+SeatFrame (full size in the middle, rounded in by `Bevel` towards both ends), Cushion (flat at
+the bottom, puffed towards the top by `Fill`), AlignedBevelXY (the profile's X pinned to a
+world axis so a bent frame does not twist, its end bevelled) and BezierSegment (the scale
+follows a cubic Bezier of four values: a lathe-like silhouette)."""
 
 from __future__ import annotations
 
@@ -8,6 +14,12 @@ import math
 
 from geocode.nodes.graph import Graph
 from geocode.nodes.group import node_group
+from geocode.nodes.utils import align_curve_tilt_to_axis
+
+# the share of the path, at its end, that AlignedBevelXY rounds in
+_BEVEL_SPAN = 0.2
+# Cushion never shrinks below this share of its profile, so its top cap keeps an area
+_CUSHION_TOP = 0.35
 
 
 def _triplet_inputs(g: Graph):
@@ -94,3 +106,62 @@ def _set_curve(mapping, points) -> None:
     for x, y in points[len(curve.points):]:
         curve.points.new(x, y)
     mapping.update()
+
+
+@node_group("StyleSeatFrame")
+def seat_frame(g: Graph) -> None:
+    """Scale 1 - Bevel (1 - sqrt(1 - u^2)), u = |2t - 1|: full size in the middle of the
+    path, a quarter-round edge of depth `Bevel` (share of the profile) at both ends."""
+    curve, profile, fill_caps, part = _triplet_inputs(g)
+    bevel = g.input("Bevel", "float", default=0.05, min=0.0, max=0.5)
+    u = g.math("ABSOLUTE", g.sub(g.mul(g.spline_factor(), 2.0), 1.0))
+    rounded = g.sub(1.0, g.math("SQRT", g.maximum(g.sub(1.0, g.mul(u, u)), 0.0)))
+    scale = g.sub(1.0, g.mul(bevel, rounded))
+    g.output("Mesh", "geometry", _sweep(g, curve, profile, scale, fill_caps, part))
+
+
+@node_group("StyleCushion")
+def cushion(g: Graph) -> None:
+    """Scale max(sqrt(1 - t^k), 0.35), k = 2 + 8 Fill, along a path that rises from the
+    cushion's bottom: a flat base whose sides puff in towards the top; `Fill` 0 gives a
+    dome, 1 a full pillow with rounded top edges."""
+    curve, profile, fill_caps, part = _triplet_inputs(g)
+    fill = g.input("Fill", "float", default=0.5, min=0.0, max=1.0)
+    power = g.math("POWER", g.spline_factor(), g.add(2.0, g.mul(fill, 8.0)))
+    puff = g.math("SQRT", g.maximum(g.sub(1.0, power), 0.0))
+    scale = g.maximum(puff, _CUSHION_TOP)
+    g.output("Mesh", "geometry", _sweep(g, curve, profile, scale, fill_caps, part))
+
+
+@node_group("StyleAlignedBevelXY")
+def aligned_bevel_xy(g: Graph) -> None:
+    """The profile's X pinned to the world `Axis` (perpendicular to the path), so a bent
+    frame does not twist; constant scale `Radius`, rounded in by `Bevel` (share of the
+    profile) over the last fifth of the path (a chamfered top)."""
+    curve, profile, fill_caps, part = _triplet_inputs(g)
+    axis = g.input("Axis", "vector", default=(1, 0, 0))
+    radius = g.input("Radius", "float", default=1.0, min=0.0)
+    bevel = g.input("Bevel", "float", default=0.0, min=0.0, max=0.9)
+    aligned = align_curve_tilt_to_axis(g, curve=curve, axis=axis)["Curve"]
+    ramp = g.map_range(g.spline_factor(), 1.0 - _BEVEL_SPAN, 1.0, 0.0, 1.0,
+                       interpolation="SMOOTHSTEP")
+    scale = g.mul(radius, g.sub(1.0, g.mul(bevel, ramp)))
+    g.output("Mesh", "geometry", _sweep(g, aligned, profile, scale, fill_caps, part))
+
+
+@node_group("StyleBezierSegment")
+def bezier_segment_style(g: Graph) -> None:
+    """Scale B(t) = (1-t)^3 Start + 3(1-t)^2 t Start Handle + 3(1-t) t^2 End Handle
+    + t^3 End: a smooth silhouette from `Start` to `End` shaped by the two handles."""
+    curve, profile, fill_caps, part = _triplet_inputs(g)
+    values = [g.input(name, "float", default=default, min=0.0)
+              for name, default in (("Start", 0.05), ("Start Handle", 0.05),
+                                    ("End Handle", 0.1), ("End", 0.2))]
+    t = g.spline_factor()
+    s = g.sub(1.0, t)
+    weights = (g.mul(g.mul(s, s), s), g.mul(3.0, g.mul(g.mul(s, s), t)),
+               g.mul(3.0, g.mul(g.mul(s, t), t)), g.mul(g.mul(t, t), t))
+    scale = 0.0
+    for weight, value in zip(weights, values, strict=True):
+        scale = g.add(scale, g.mul(weight, value))
+    g.output("Mesh", "geometry", _sweep(g, curve, profile, scale, fill_caps, part))
