@@ -164,3 +164,23 @@ def test_points_shard_seed_changes_clouds(tmp_path):
 def test_points_shard_missing_export(tmp_path):
     with pytest.raises(FileNotFoundError, match="export-3.txt"):
         points_shard(tmp_path, 3, {"surface": 10, "fps": 5, "random": 5}, seed=0)
+
+
+def _fps_by_definition(pts: np.ndarray, k: int, start: int) -> np.ndarray:
+    """The straightforward O(k n) loop, as the reference for the pruned one."""
+    dist = np.full(len(pts), np.inf, dtype=np.float32)
+    out = [start]
+    for _ in range(k - 1):
+        diff = pts - pts[out[-1]]
+        dist = np.minimum(dist, np.einsum("ij,ij->i", diff, diff))
+        out.append(int(dist.argmax()))
+    return np.array(out)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_pruned_fps_picks_exactly_what_the_definition_picks(seed):
+    rng = np.random.default_rng(seed)
+    mesh = trimesh.creation.annulus(0.3, 1.0, 0.5) if seed == 2 else trimesh.creation.icosphere(3)
+    pts = sample_surface(mesh, 6000, rng)                       # clustered on a surface
+    for k, start in ((300, 0), (1000, 17)):
+        assert np.array_equal(farthest_point_sampling(pts, k, start), _fps_by_definition(pts, k, start))
