@@ -16,7 +16,8 @@ import signal
 import sys
 from pathlib import Path
 
-USER_ERRORS = (ValueError, FileNotFoundError, KeyError)
+# What a user's input can cause; anything else is a bug and keeps its traceback.
+USER_ERRORS = (ValueError, FileNotFoundError)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -31,8 +32,7 @@ def main(argv: list[str] | None = None) -> int:
     except USER_ERRORS as exc:
         if os.environ.get("GEOCODE_DEBUG"):
             raise
-        message = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc
-        print(f"geocode: {message}", file=sys.stderr)
+        print(f"geocode: {exc}", file=sys.stderr)
         return 2
     if result is not None:
         print(json.dumps(result) if getattr(args, "json", False) else format_result(result))
