@@ -44,11 +44,13 @@ def load_sketch_u8(path: str | Path) -> np.ndarray:
 
 
 def _load_npz(path: Path) -> tuple[np.ndarray, np.ndarray]:
-    try:
-        with np.load(path, allow_pickle=False) as data:
-            return data["fps"].astype(np.float32), data["random"].astype(np.float32)
-    except (OSError, ValueError, KeyError) as exc:
-        raise ValueError(f"{path}: not a readable point-cloud .npz ({exc}); rerun the points step") from None
+    from geocode.points import load_clouds
+
+    clouds = load_clouds(path)
+    missing = {"fps", "random"} - set(clouds)
+    if missing:
+        raise ValueError(f"{path}: no {sorted(missing)[0]!r} cloud in it; rerun the points step")
+    return clouds["fps"].astype(np.float32), clouds["random"].astype(np.float32)
 
 
 def id_rng(shape_id: str, salt: str = "eval-cloud") -> np.random.Generator:
