@@ -12,9 +12,9 @@ from geocode.models import (
     GeoCodeModule,
     VGGSketchEncoder,
     knn,
-    knn_chunked,
 )
 from geocode.models.heads import regression_classes, regression_loss
+from geocode.models.neighbours import knn_cells, knn_chunked
 
 HEADS = [
     {"name": "size", "n_classes": 5, "continuous": True, "existence": True},
@@ -39,6 +39,62 @@ def test_knn_chunked_finds_the_same_neighbours():
     ref = knn(x.transpose(1, 2), 20).sort(dim=-1).values
     fast = knn_chunked(x, 20, chunk_bytes=80 * 80 * 4).sort(dim=-1).values  # one cloud per block
     assert torch.equal(ref, fast)
+
+
+def _exact_knn_distances(x: torch.Tensor, k: int) -> torch.Tensor:
+    """Sorted squared distances to the k nearest, by the definition. x (B, N, C) -> (B, N, k)."""
+    d = ((x[:, :, None, :].double() - x[:, None, :, :].double()) ** 2).sum(-1)
+    return d.sort(dim=-1).values[..., :k]
+
+
+def _knn_distances(x: torch.Tensor, idx: torch.Tensor) -> torch.Tensor:
+    xd = x.double()
+    nb = torch.stack([xd[b][idx[b]] for b in range(len(x))])  # (B, N, k, C)
+    return ((nb - xd[:, :, None, :]) ** 2).sum(-1)
+
+
+def _clouds():
+    g = torch.Generator().manual_seed(0)
+    sphere = torch.randn(1, 2300, 3, generator=g)
+    sphere = sphere / sphere.norm(dim=2, keepdim=True)  # a surface, as the data is
+    dense = torch.rand(1, 30000, 3, generator=g) * torch.tensor([1.0, 1.0, 0.01])  # a thin slab
+    slab = torch.cat([dense[:, :1500], dense[:, torch.randperm(30000, generator=g)[:800]]], dim=1)
+    spread = torch.randn(1, 600, 32, generator=g) * torch.logspace(0, -2, 32)  # anisotropic features
+    dupes = torch.randn(1, 50, 3, generator=g).repeat(1, 3, 1)  # every point three times
+    line = torch.linspace(0, 1, 60).view(1, 60, 1) * torch.tensor([1.0, 2.0, 0.0, 0.0])
+    return {
+        "surface": sphere, "fps_and_random": slab, "features": spread, "duplicates": dupes, "collinear": line,
+        "batch": torch.rand(3, 200, 16, generator=g), "one_point_many_times": torch.ones(1, 40, 5),
+        "two_dims": torch.rand(2, 100, 2, generator=g), "fewer_than_a_group": torch.rand(1, 7, 3, generator=g),
+    }
+
+
+@pytest.mark.parametrize("name", list(_clouds()))
+@pytest.mark.parametrize("dtype", [torch.float32, torch.float64])
+def test_knn_cells_is_exact(name, dtype):
+    """The cell search returns the true k nearest, nearest first (distances, since ties
+    between equally distant points may be broken either way)."""
+    x = _clouds()[name].to(dtype)
+    k = min(20, x.shape[1])
+    idx = knn_cells(x, k)
+    assert idx.shape == (*x.shape[:2], k) and idx.dtype == torch.int64
+    got = _knn_distances(x, idx)
+    torch.testing.assert_close(got, _exact_knn_distances(x, k), rtol=1e-5, atol=1e-6)
+    assert (got.diff(dim=-1) >= -1e-6).all()  # sorted, nearest first
+
+
+def test_knn_cells_seeds_only_speed_it_up():
+    """Seeds (the previous layer's neighbours) change no distance, only the work."""
+    x = _clouds()["features"]
+    seeds = knn_cells(x[..., :4].contiguous(), 20)  # neighbours in another space
+    torch.testing.assert_close(_knn_distances(x, knn_cells(x, 20, seeds)), _exact_knn_distances(x, 20))
+
+
+def test_knn_cells_rejects_non_finite_features():
+    x = torch.rand(1, 50, 3)
+    x[0, 7, 1] = float("nan")
+    with pytest.raises(ValueError, match="NaN or inf"):
+        knn_cells(x, 10)
 
 
 @pytest.mark.parametrize("train", [True, False])

@@ -5,14 +5,14 @@ from geocode.models.dgcnn import (
     DGCNNReference,
     edge_conv_fast,
     gather_neighbours,
-    knn,
-    knn_chunked,
 )
 from geocode.models.heads import Decoders, head_specs
 from geocode.models.module import VARIANTS, GeoCodeModule
+from geocode.models.neighbours import knn, knn_cells, knn_chunked, nearest_neighbours
 from geocode.models.vgg import VGGSketchEncoder
 
 __all__ = [
     "DGCNN", "DGCNNReference", "Decoders", "GeoCodeModule", "VARIANTS", "VGGSketchEncoder",
-    "edge_conv_fast", "gather_neighbours", "head_specs", "knn", "knn_chunked",
+    "edge_conv_fast", "gather_neighbours", "head_specs", "knn", "knn_cells", "knn_chunked",
+    "nearest_neighbours",
 ]

@@ -12,43 +12,12 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
+from geocode.models.neighbours import knn, nearest_neighbours
+
 LEAKY_SLOPE = 0.2
-KNN_CHUNK_BYTES = 64 * 2**20  # bound on one block of pairwise scores in `knn_chunked`
 
 
 # ---------------------------------------------------------------- pure helpers
-
-
-def knn(x: torch.Tensor, k: int) -> torch.Tensor:
-    """Indices of the k nearest neighbours of every point (itself included).
-
-    d(i, j) = -||x_i - x_j||^2 = -||x_i||^2 + 2 x_i.x_j - ||x_j||^2, top-k over j.
-
-    Shapes: x (B, C, N) -> (B, N, k) int64.
-    """
-    inner = 2 * torch.matmul(x.transpose(2, 1), x)  # (B, N, N)
-    sq = (x * x).sum(dim=1, keepdim=True)  # (B, 1, N)
-    neg_dist = inner - sq - sq.transpose(2, 1)  # (B, N, N)
-    return neg_dist.topk(k, dim=-1).indices  # (B, N, k)
-
-
-def knn_chunked(x: torch.Tensor, k: int, chunk_bytes: int = KNN_CHUNK_BYTES) -> torch.Tensor:
-    """`knn` on point-major features, a few clouds at a time (bounded memory).
-
-    Ranks by s(i, j) = [x_i, 1] . [2 x_j, -||x_j||^2] = -||x_i - x_j||^2 + ||x_i||^2 (the
-    added term is constant per row): one plain `bmm` per block, no broadcast copy.
-
-    Shapes: x (B, N, C) -> (B, N, k) int64.
-    """
-    b, n, _ = x.shape
-    step = max(1, chunk_bytes // (n * n * x.element_size()))
-    left = torch.cat([x, x.new_ones(b, n, 1)], dim=2)  # (B, N, C+1)
-    right = torch.cat([2 * x, -(x * x).sum(dim=2, keepdim=True)], dim=2)  # (B, N, C+1)
-    out = []
-    for s in range(0, b, step):
-        score = torch.bmm(left[s : s + step], right[s : s + step].transpose(1, 2))  # (b', N, N)
-        out.append(score.topk(k, dim=-1, sorted=False).indices)  # (b', N, k)
-    return torch.cat(out)  # (B, N, k)
 
 
 def gather_neighbours(x: torch.Tensor, idx: torch.Tensor) -> torch.Tensor:
@@ -242,7 +211,7 @@ def _update_running(bn: nn.modules.batchnorm._BatchNorm, mean: torch.Tensor, var
 
 class DGCNN(DGCNNReference):
     """`DGCNNReference`, exact and faster: per-point linear maps (`edge_conv_fast`),
-    point-major layout, chunked kNN; same parameters, same outputs and gradients.
+    point-major layout, kNN by cells on the CPU; same parameters, outputs and gradients.
 
     Shapes: points (B, N, 3) -> (B, 2 * out_channels).
     """
@@ -250,8 +219,9 @@ class DGCNN(DGCNNReference):
     def forward(self, points: torch.Tensor) -> torch.Tensor:
         x = points  # (B, N, 3)
         feats = []
+        idx = None
         for conv in self.edge_convs:
-            idx = knn_chunked(x.detach(), min(self.k, x.shape[1]))  # (B, N, k)
+            idx = nearest_neighbours(x.detach(), min(self.k, x.shape[1]), seeds=idx)  # (B, N, k)
             x = edge_conv_fast(x, idx, conv[0].weight, conv[1])  # (B, N, C)
             feats.append(x)
         z = self._head_point_major(torch.cat(feats, dim=2))  # (B, N, out)
