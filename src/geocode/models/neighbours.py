@@ -10,7 +10,6 @@ import numpy as np
 import torch
 
 KNN_CHUNK_BYTES = 64 * 2**20  # bound on one block of pairwise scores in `knn_chunked`
-PROBES = 16  # points whose k-th distance sets the cell side of `knn_cells`
 
 
 def knn(x: torch.Tensor, k: int) -> torch.Tensor:
@@ -102,7 +101,8 @@ CELL_POINTS = 16  # about this many points per cell where the cloud is a surface
 def _knn_in_cells(feats, k, chunks, seeds):
     """(B, N, k) neighbour indices, nearest first, of features (float32 or float64) on
     their principal axes (C >= 3); see `knn_cells`. seeds (B, N, S): points offered
-    first to each query (S may be 0)."""
+    first to each query (S may be 0); each cloud's groups are split in `chunks` parts
+    for the threads."""
     bsz, n, c = feats.shape
     out = np.empty((bsz, n, k), np.int64)
     groups = (n + GROUP - 1) // GROUP
@@ -111,15 +111,17 @@ def _knn_in_cells(feats, k, chunks, seeds):
         x = feats[b][order]  # cell order: a cell's points lie together in memory
         rank = np.empty(n, np.int64)
         rank[order] = np.arange(n)
-        for chunk in numba.prange(min(chunks, groups)):
-            # scratch, allocated once per chunk: allocations cost more than a cell's search
+        parts = min(chunks, groups)
+        for part in numba.prange(parts):
+            # scratch, allocated once per part: allocations cost more than a cell's search
             rows = np.empty((GROUP, c), feats.dtype)
             q = np.empty((c, GROUP), feats.dtype)
             best_d = np.empty((GROUP, k), feats.dtype)
             best_j = np.empty((GROUP, k), np.int64)
             gaps = np.empty((3, shape.max(), GROUP), feats.dtype)
             hint = np.empty((GROUP, seeds.shape[2]), np.int64)
-            for g in range(chunk * groups // min(chunks, groups), (chunk + 1) * groups // min(chunks, groups)):
+            seeded = np.zeros((GROUP, n), np.int32)  # = group number + 1 where a seed of that query
+            for g in range(part * groups // parts, (part + 1) * groups // parts):
                 first = g * GROUP
                 for m in range(GROUP):
                     s = min(first + m, n - 1)  # the last point fills a short group
@@ -127,7 +129,7 @@ def _knn_in_cells(feats, k, chunks, seeds):
                     q[:, m] = rows[m]
                     for t in range(seeds.shape[2]):
                         hint[m, t] = rank[seeds[b, order[s], t]]
-                _search_group(x, rows, q, hint, lo, side, shape, start, best_d, best_j, gaps)
+                _search_group(x, rows, q, hint, g + 1, seeded, lo, side, shape, start, best_d, best_j, gaps)
                 for m in range(min(GROUP, n - first)):
                     for i in range(k):
                         out[b, order[first + m], i] = order[best_j[m, i]]
@@ -176,10 +178,11 @@ def _exceeds(bound, kth):
 
 
 @numba.njit(cache=True, nogil=True)
-def _search_group(x, rows, q, hint, lo, side, shape, start, best_d, best_j, gaps):
+def _search_group(x, rows, q, hint, stamp, seeded, lo, side, shape, start, best_d, best_j, gaps):
     """Fill best_j (GROUP, k) with the rows of x nearest to each query, nearest first, by
     rings of cells around the block of cells the queries occupy, after the rows in hint
-    (GROUP, S), which only tighten the k-th distances early. The queries come twice:
+    (GROUP, S), which only tighten the k-th distances early; seeded[m, j] = stamp marks
+    them, so that their cells do not offer them twice. The queries come twice:
     rows (GROUP, C) and q (C, GROUP); best_d and gaps are scratch."""
     best_d[:] = np.inf
     best_j[:] = 0
@@ -197,7 +200,9 @@ def _search_group(x, rows, q, hint, lo, side, shape, start, best_d, best_j, gaps
     for m in range(GROUP):
         for t in range(hint.shape[1]):
             j = hint[m, t]
-            _insert(best_d, best_j, kth, m, _distance(x[j], rows[m]), j)
+            if seeded[m, j] != stamp:
+                seeded[m, j] = stamp
+                _insert(best_d, best_j, kth, m, _distance(x[j], rows[m]), j)
     r = 0
     while True:
         for a in range(3):
@@ -217,7 +222,8 @@ def _search_group(x, rows, q, hint, lo, side, shape, start, best_d, best_j, gaps
                         near[m] = gaps[0, i0, m] + gaps[1, i1, m] + gaps[2, i2, m]
                         wanted |= not _exceeds(near[m], kth[m])
                     if wanted:
-                        _offer_cell(x, q, rows, start[cell], start[cell + 1], best_d, best_j, kth, near)
+                        _offer_cell(x, q, rows, start[cell], start[cell + 1], best_d, best_j, kth, near,
+                                    stamp, seeded)
         # every point outside the block is at least this far from each query
         done = True
         for m in range(GROUP):
@@ -245,11 +251,12 @@ def _axis_gaps(q, lo, side, i_lo, i_hi, gaps):
 
 
 @numba.njit(cache=True, nogil=True, fastmath=FAST)
-def _offer_cell(x, q, rows, begin, end, best_d, best_j, kth, d):
+def _offer_cell(x, q, rows, begin, end, best_d, best_j, kth, d, stamp, seeded):
     """Insert the points x[begin:end] into each query's sorted top-k where they are
     nearer than its k-th (kth, kept equal to best_d[:, -1]). The first PREFILTER axes,
     computed for all queries at once, rule most points out. The queries come twice:
-    q (C, GROUP) and rows (GROUP, C); d (GROUP,) is scratch."""
+    q (C, GROUP) and rows (GROUP, C); d (GROUP,) is scratch; seeds (seeded[m, j] ==
+    stamp) are in the top-k already."""
     c = x.shape[1]
     lead = min(c, PREFILTER)
     for j in range(begin, end):
@@ -265,7 +272,7 @@ def _offer_cell(x, q, rows, begin, end, best_d, best_j, kth, d):
         if not wanted:
             continue
         for m in range(GROUP):
-            if d[m] >= kth[m]:
+            if d[m] >= kth[m] or seeded[m, j] == stamp:
                 continue
             s = d[m]
             for f in range(lead, c):
@@ -286,13 +293,10 @@ def _distance(a, b):
 @numba.njit(cache=True, nogil=True, inline="always")
 def _insert(best_d, best_j, kth, m, s, j):
     """Put row j at squared distance s into query m's sorted top-k, unless it is not
-    nearer than the k-th or is there already (a seed met again in its cell)."""
+    nearer than the k-th."""
     if s >= kth[m]:
         return
     k = best_d.shape[1]
-    for i in range(k):
-        if best_j[m, i] == j and best_d[m, i] != np.inf:
-            return
     p = k - 1
     while p > 0 and best_d[m, p - 1] > s:
         best_d[m, p] = best_d[m, p - 1]
