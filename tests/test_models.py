@@ -145,6 +145,39 @@ def test_encoder_shapes():
     assert reg["size"].shape == (4, 2) and reg["count"].shape == (4, 3) and reg["width"].shape == (4, 1)
 
 
+@pytest.mark.parametrize("regression", [False, True])
+def test_decoders_stacked_in_eval_equal_the_heads_one_by_one(regression):
+    torch.manual_seed(0)
+    dec = Decoders(HEADS, in_dim=128, regression=regression)
+    _randomise_bn(dec)
+    dec.eval()
+    z = torch.randn(5, 128)
+    one_by_one = {name: head(z) for name, head in dec.heads.items()}
+    stacked = dec(z)
+    assert stacked.keys() == one_by_one.keys()
+    for name in one_by_one:
+        torch.testing.assert_close(stacked[name], one_by_one[name], atol=1e-5, rtol=1e-5)
+
+
+def test_decoders_stack_follows_new_weights():
+    """The eval-mode stack is rebuilt after load_state_dict, a train/eval switch and .to()."""
+    torch.manual_seed(0)
+    dec, other = Decoders(HEADS).eval(), Decoders(HEADS).eval()
+    _randomise_bn(other, seed=1)
+    z = torch.randn(4, 128)
+    before = dec(z)["size"]
+    dec.load_state_dict(other.state_dict())
+    torch.testing.assert_close(dec(z)["size"], other(z)["size"])
+    assert not torch.allclose(dec(z)["size"], before)
+    dec.train()
+    torch.optim.SGD(dec.parameters(), lr=1.0).zero_grad()
+    dec(z)["size"].sum().backward()
+    torch.optim.SGD(dec.parameters(), lr=1.0).step()
+    dec.eval()
+    torch.testing.assert_close(dec(z)["size"], dec.heads["size"](z))
+    assert dec.double()(z.double())["size"].dtype == torch.float64
+
+
 def test_loss_is_sum_of_cross_entropies_with_existence_class():
     dec = Decoders(HEADS)
     out = {"size": torch.randn(3, 5), "count": torch.randn(3, 3), "width": torch.randn(3, 4)}

@@ -61,6 +61,8 @@ class Decoders(nn.Module):
         self.heads = nn.ModuleDict(
             {s["name"]: mlp(in_dim, hidden, self._width(s), dropout) for s in self.specs}
         )
+        self._stack: list | None = None  # the eval-mode heads, stacked (see `_stacked`)
+        self.register_load_state_dict_post_hook(lambda module, _: module._forget_stack())
 
     def _width(self, spec: Mapping) -> int:
         if self.modes[spec["name"]] == "cls":
@@ -68,7 +70,45 @@ class Decoders(nn.Module):
         return 2 if spec["existence"] else 1
 
     def forward(self, embedding: torch.Tensor) -> dict[str, torch.Tensor]:
-        return {name: head(embedding) for name, head in self.heads.items()}
+        if self.training or not self.heads:
+            return {name: head(embedding) for name, head in self.heads.items()}
+        return self._forward_stacked(embedding)
+
+    def _forward_stacked(self, embedding: torch.Tensor) -> dict[str, torch.Tensor]:
+        """Eval mode, all heads in one batched product per layer (the same numbers as the
+        heads one by one, whose dozens of small modules cost more than their arithmetic).
+
+        Shapes: embedding (B, in_dim) -> {name: (B, width)}.
+        """
+        h = embedding.unsqueeze(0).expand(len(self.heads), -1, -1)  # (P, B, in)
+        *hidden, (w_out, b_out) = self._stacked()
+        for w, b, scale, shift in hidden:
+            h = torch.baddbmm(b.unsqueeze(1), h, w.transpose(1, 2))  # (P, B, h)
+            h = F.leaky_relu(h * scale.unsqueeze(1) + shift.unsqueeze(1), LEAKY_SLOPE)
+        out = torch.baddbmm(b_out.unsqueeze(1), h, w_out.transpose(1, 2))  # (P, B, widest)
+        return {name: out[p, :, : self._width(spec)]
+                for p, (name, spec) in enumerate(zip(self.heads, self.specs, strict=True))}
+
+    def _stacked(self) -> list[tuple[torch.Tensor, ...]]:
+        """Per layer, the heads' weights stacked: hidden layers as (W (P, out, in), b,
+        BN scale, BN shift (P, out)), the last as (W (P, widest, in) zero-padded, b).
+        Built at the first eval-mode call and kept until the weights can have changed:
+        `train()`/`eval()`, `.to()` and `load_state_dict` drop it (so do that after
+        editing the weights of an eval-mode model by hand)."""
+        if self._stack is None:
+            self._stack = _stack_heads(list(self.heads.values()))
+        return self._stack
+
+    def _forget_stack(self) -> None:
+        self._stack = None
+
+    def train(self, mode: bool = True):
+        self._forget_stack()
+        return super().train(mode)
+
+    def _apply(self, fn, *args, **kwargs):
+        self._forget_stack()
+        return super()._apply(fn, *args, **kwargs)
 
     def loss(self, outputs: Mapping[str, torch.Tensor], labels: torch.Tensor, columns: Mapping[str, int]) -> torch.Tensor:
         """sum over parameters of CE (classification) or MSE (regression).
@@ -95,6 +135,29 @@ class Decoders(nn.Module):
             else:
                 out[name] = regression_classes(outputs[name], spec)
         return out
+
+
+@torch.no_grad()
+def _stack_heads(heads: Sequence[nn.Sequential]) -> list[tuple[torch.Tensor, ...]]:
+    """See `Decoders._stacked`; the heads are `mlp`s of one shape but for the last width."""
+    layers = []
+    linears = [[m for m in head if isinstance(m, nn.Linear)] for head in heads]
+    norms = [[m for m in head if isinstance(m, nn.BatchNorm1d)] for head in heads]
+    for depth in range(len(norms[0])):
+        lin = [ls[depth] for ls in linears]
+        bns = [ns[depth] for ns in norms]
+        scale = torch.stack([bn.weight * torch.rsqrt(bn.running_var + bn.eps) for bn in bns])  # (P, out)
+        shift = torch.stack([bn.bias for bn in bns]) - torch.stack([bn.running_mean for bn in bns]) * scale
+        layers.append((torch.stack([m.weight for m in lin]), torch.stack([m.bias for m in lin]), scale, shift))
+    last = [ls[-1] for ls in linears]
+    widest = max(m.out_features for m in last)
+    w = last[0].weight.new_zeros(len(last), widest, last[0].in_features)  # (P, widest, in)
+    b = last[0].bias.new_zeros(len(last), widest)
+    for p, m in enumerate(last):
+        w[p, : m.out_features] = m.weight
+        b[p, : m.out_features] = m.bias
+    layers.append((w, b))
+    return layers
 
 
 def _n_values(spec: Mapping) -> int:
