@@ -125,6 +125,19 @@ def test_fast_dgcnn_equals_reference(train):
         torch.testing.assert_close(b2.double(), b1.double(), atol=1e-5, rtol=1e-5, msg=name)
 
 
+def test_fast_dgcnn_inference_equals_reference():
+    """Without autograd the fast encoder takes its inference path (compiled neighbour max)."""
+    torch.manual_seed(2)
+    ref = DGCNNReference().double()
+    _randomise_bn(ref)
+    fast = DGCNN().double()
+    fast.load_state_dict(ref.state_dict())
+    ref.eval(), fast.eval()
+    x = torch.randn(2, 300, 3, dtype=torch.float64)
+    with torch.inference_mode():
+        torch.testing.assert_close(fast(x), ref(x), atol=1e-5, rtol=1e-5)
+
+
 def test_fast_dgcnn_float32_close():
     torch.manual_seed(1)
     ref, fast = DGCNNReference(), DGCNN()

@@ -12,7 +12,7 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-from geocode.models.neighbours import knn, nearest_neighbours
+from geocode.models.neighbours import knn, nearest_neighbours, neighbour_max
 
 LEAKY_SLOPE = 0.2
 
@@ -57,6 +57,8 @@ class _NeighbourMaxSum(torch.autograd.Function):
 
     @staticmethod
     def forward(ctx, b: torch.Tensor, flat: torch.Tensor, k: int, with_sum: bool):
+        if not ctx.needs_input_grad[0] and not with_sum:  # inference
+            return neighbour_max(b, flat, k), None
         p = flat.numel() // k
         nb = b.index_select(0, flat).view(p, k, -1)  # (P, k, O)
         total = nb.sum(dim=1) if with_sum else None

@@ -76,6 +76,16 @@ def nearest_neighbours(x: torch.Tensor, k: int, seeds: torch.Tensor | None = Non
     return knn_cells(x, k, seeds) if x.device.type == "cpu" else knn_chunked(x, k)
 
 
+def neighbour_max(b: torch.Tensor, flat: torch.Tensor, k: int) -> torch.Tensor:
+    """max_{j in N(i)} b_j for every point i, without the (P, k, O) gather on the CPU.
+
+    Shapes: b (P, O), flat (P*k,) rows of b, k at a time -> (P, O).
+    """
+    if b.device.type != "cpu":
+        return b.index_select(0, flat).view(-1, k, b.shape[1]).amax(dim=1)
+    return torch.from_numpy(_gather_max(b.detach().contiguous().numpy(), flat.numpy(), k))
+
+
 def _principal_coordinates(feats: torch.Tensor) -> torch.Tensor:
     """Each cloud's centred features on its principal axes, largest variance first, at
     least three columns (zero-padded).
@@ -95,6 +105,20 @@ FAST = {"nsz", "arcp", "contract", "afn", "reassoc"}
 GROUP = 16  # queries searched together (lanes of the vectorised loops)
 PREFILTER = 8  # leading axes compared for every query before the rest
 CELL_POINTS = 16  # about this many points per cell where the cloud is a surface
+
+
+@numba.njit(cache=True, nogil=True, parallel=True, fastmath=FAST)
+def _gather_max(b, flat, k):
+    """(P, O): row i is the element-wise max of b[flat[i*k : (i+1)*k]]."""
+    out = np.empty((len(flat) // k, b.shape[1]), b.dtype)
+    for i in numba.prange(out.shape[0]):
+        row = out[i]
+        row[:] = b[flat[i * k]]
+        for t in range(1, k):
+            nb = b[flat[i * k + t]]
+            for c in range(len(row)):
+                row[c] = max(row[c], nb[c])
+    return out
 
 
 @numba.njit(cache=True, nogil=True, parallel=True)
