@@ -59,11 +59,12 @@ def knn_cells(x: torch.Tensor, k: int, seeds: torch.Tensor | None = None) -> tor
 
     Shapes: x (B, N, C), seeds (B, N, S) int64 -> (B, N, k) int64.
     """
-    if not torch.isfinite(x).all():
+    feats = x.detach().to("cpu")
+    if not np.isfinite(feats.numpy()).all():
         raise ValueError("kNN: the features hold NaN or inf (is the point cloud finite?)")
-    feats = _principal_coordinates(x.detach().to("cpu", torch.float64)).to(x.dtype)  # (B, N, max(C, 3))
+    feats = _principal_coordinates(feats).contiguous().numpy()  # (B, N, max(C, 3))
     hint = np.zeros(x.shape[:2] + (0,), np.int64) if seeds is None else seeds.to("cpu").numpy()
-    idx = _knn_in_cells(feats.contiguous().numpy(), k, 4 * numba.get_num_threads(), hint)
+    idx = _knn_in_cells(feats, k, 4 * numba.get_num_threads(), hint)
     return torch.from_numpy(idx).to(x.device)
 
 
@@ -88,7 +89,8 @@ def neighbour_max(b: torch.Tensor, flat: torch.Tensor, k: int) -> torch.Tensor:
 
 def _principal_coordinates(feats: torch.Tensor) -> torch.Tensor:
     """Each cloud's centred features on its principal axes, largest variance first, at
-    least three columns (zero-padded).
+    least three columns (zero-padded). The axes come from a float64 eigendecomposition:
+    orthonormal to rounding, so distances stay as they were.
 
     Shapes: feats (B, N, C) -> (B, N, max(C, 3)).
     """
@@ -96,8 +98,9 @@ def _principal_coordinates(feats: torch.Tensor) -> torch.Tensor:
     c = centred.shape[2]
     if c < 3:
         return torch.cat([centred, centred.new_zeros(centred.shape[:2] + (3 - c,))], dim=2)
-    axes = torch.linalg.eigh(centred.transpose(1, 2) @ centred).eigenvectors  # (B, C, C), ascending
-    return centred @ axes.flip(2)  # (B, N, C)
+    cov = (centred.transpose(1, 2) @ centred).double()  # (B, C, C)
+    axes = torch.linalg.eigh(cov).eigenvectors.flip(2).to(feats.dtype)  # (B, C, C), eigenvalues descending
+    return centred @ axes  # (B, N, C)
 
 
 # fast maths without assuming finite values: unfilled top-k slots hold inf
