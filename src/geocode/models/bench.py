@@ -64,8 +64,8 @@ def bench_train(batch: int = 33, n_points: int = 2300, repeats: int = 3, n_heads
     one_cloud = points[:1]
     one_sketch = torch.rand(1, 1, 224, 224)
     with torch.inference_mode():
-        pc_s = _best_time(lambda: model.predict_classes(points=one_cloud), 10)
-        sk_s = _best_time(lambda: model.predict_classes(sketches=one_sketch), 10)
+        pc_s = _best_time(lambda: model.predict_classes(points=one_cloud), 30)
+        sk_s = _best_time(lambda: model.predict_classes(sketches=one_sketch), 30)
         batch_s = _best_time(lambda: model.predict_classes(points=points), 2)
     return {
         "reference_samples_per_s": batch / t_ref,

@@ -88,15 +88,15 @@ def neighbour_max(b: torch.Tensor, flat: torch.Tensor, k: int) -> torch.Tensor:
 
 
 def _principal_coordinates(feats: torch.Tensor) -> torch.Tensor:
-    """Each cloud's centred features on its principal axes, largest variance first, at
-    least three columns (zero-padded). The axes come from a float64 eigendecomposition:
-    orthonormal to rounding, so distances stay as they were.
+    """Each cloud's centred features on its principal axes, largest variance first (as
+    they are where C <= 3), at least three columns (zero-padded). The axes come from a
+    float64 eigendecomposition: orthonormal to rounding, so distances stay as they were.
 
     Shapes: feats (B, N, C) -> (B, N, max(C, 3)).
     """
     centred = feats - feats.mean(dim=1, keepdim=True)  # (B, N, C)
     c = centred.shape[2]
-    if c < 3:
+    if c <= 3:
         return torch.cat([centred, centred.new_zeros(centred.shape[:2] + (3 - c,))], dim=2)
     cov = (centred.transpose(1, 2) @ centred).double()  # (B, C, C)
     axes = torch.linalg.eigh(cov).eigenvectors.flip(2).to(feats.dtype)  # (B, C, C), eigenvalues descending
