@@ -66,3 +66,9 @@ def test_program_show_json_lists_every_parameter():
     keys = {"name", "kind", "min", "max", "default", "classes", "visible_if"}
     assert all(keys <= set(p) for p in show["parameters"])
     assert sum(p["visible_if"] is not None for p in show["parameters"]) >= 5
+
+
+def test_bench_epoch_refuses_an_unknown_device_in_one_line():
+    result = geocode("bench", "epoch", "--device", "gpu")
+    assert result.returncode == 2 and "--device gpu" in result.stderr
+    assert len(result.stderr.strip().splitlines()) == 1

@@ -251,3 +251,11 @@ def test_model_configs_compose_and_instantiate(name):
     model = instantiate(cfg, heads=HEADS, lr=1e-2, step_size=20, gamma=0.9, _convert_="all")
     assert isinstance(model, GeoCodeModule) and model.hparams.variant == name
     assert model.parameter_names == ["size", "count", "width"]
+
+
+def test_bench_epoch_counts_the_steps_of_an_epoch():
+    from geocode.models.bench import bench_epoch
+
+    out = bench_epoch(clouds=5, sketches=10, batch=2, device="cpu", n_points=64, n_heads=3)
+    assert out["steps"] == 3 and out["clouds"] == 6 and out["sketches"] == 12
+    assert out["epoch_s"] > 0 and out["device"] == "cpu"

@@ -78,9 +78,12 @@ def parser() -> argparse.ArgumentParser:
     c.set_defaults(run=cmd_gallery)
 
     c = sub.add_parser("bench", help="measure a stage's throughput")
-    c.add_argument("stage", choices=["program", "dataset", "train", "eval"])
+    c.add_argument("stage", choices=["program", "dataset", "train", "epoch", "eval"])
     c.add_argument("domain", nargs="?", default="vase")
     c.add_argument("--n", type=int, default=200)
+    c.add_argument("--clouds", type=int, default=9330, help="epoch: clouds per epoch (paper-scale vase)")
+    c.add_argument("--sketches", type=int, default=18660, help="epoch: sketches per epoch")
+    c.add_argument("--device", default="auto", help="epoch: auto (a GPU where there is one), cpu or cuda")
     c.add_argument("--json", action="store_true")
     c.set_defaults(run=cmd_bench)
 
@@ -205,6 +208,10 @@ def cmd_bench(args):
         from geocode.train import bench_train
 
         return bench_train()
+    if args.stage == "epoch":
+        from geocode.models.bench import bench_epoch
+
+        return bench_epoch(args.clouds, args.sketches, device=args.device)
     from geocode.evaluate import bench_eval
 
     return bench_eval(args.domain)

@@ -77,3 +77,56 @@ def bench_train(batch: int = 33, n_points: int = 2300, repeats: int = 3, n_heads
         "batched_points_ms_per_sample": 1000 * batch_s / batch,
         "threads": torch.get_num_threads(),
     }
+
+
+def bench_epoch(clouds: int = 9330, sketches: int = 18660, batch: int = 33, device: str = "auto",
+                n_points: int = 2300, n_heads: int = 39, seed: int = 0) -> dict:
+    """Seconds of one training epoch of the joint model at a dataset size (default: the
+    paper-scale vase, 9330 clouds and 18660 sketches), on random tensors of the inputs'
+    shapes kept on the device (data loading not included): ceil(clouds / batch) Adam
+    steps, each on `batch` clouds and the matching share of the sketches."""
+    dev = _device(device)
+    torch.manual_seed(seed)
+    heads = [{"name": f"p{i}", "n_classes": 5 + i % 3, "continuous": True, "existence": i % 4 == 0}
+             for i in range(n_heads)]
+    model = GeoCodeModule(heads).to(dev).train()
+    opt = torch.optim.Adam(model.parameters(), lr=1e-3)
+    steps = -(-clouds // batch)
+    per_step = max(1, round(batch * sketches / clouds))
+    points = torch.rand(batch, n_points, 3, device=dev) * 2 - 1
+    sketch = torch.rand(per_step, 1, 224, 224, device=dev)
+    labels = {m: torch.stack([torch.randint(h["n_classes"], (n,), device=dev) for h in heads], dim=1)
+              for m, n in (("points", batch), ("sketch", per_step))}
+
+    def step():
+        out = model(points=points, sketches=sketch)
+        loss = sum(model._loss(out[m], labels[m], m) for m in out)
+        opt.zero_grad(set_to_none=True)
+        loss.backward()
+        opt.step()
+
+    step()  # warm-up (kernels, caches)
+    _sync(dev)
+    start = time.perf_counter()
+    for _ in range(steps):
+        step()
+    _sync(dev)
+    seconds = time.perf_counter() - start
+    return {"epoch_s": seconds, "steps": steps, "clouds": steps * batch, "sketches": steps * per_step,
+            "device": torch.cuda.get_device_name(dev) if dev.type == "cuda" else "cpu",
+            "threads": torch.get_num_threads()}
+
+
+def _device(name: str) -> torch.device:
+    if name == "auto":
+        return torch.device("cuda" if torch.cuda.is_available() else "cpu")
+    if name not in ("cpu", "cuda"):
+        raise ValueError(f"--device {name}: use auto, cpu or cuda")
+    if name == "cuda" and not torch.cuda.is_available():
+        raise ValueError("--device cuda: torch sees no CUDA GPU here; use --device cpu or auto")
+    return torch.device(name)
+
+
+def _sync(dev: torch.device) -> None:
+    if dev.type == "cuda":
+        torch.cuda.synchronize(dev)
