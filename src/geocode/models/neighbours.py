@@ -286,15 +286,16 @@ def _offer_cell(x, q, rows, begin, end, best_d, best_j, kth, d, stamp, seeded):
     stamp) are in the top-k already."""
     c = x.shape[1]
     lead = min(c, PREFILTER)
+    lanes = q.shape[1]  # GROUP, read at run time: LLVM vectorises this loop, not an unrolled one
     for j in range(begin, end):
         d[:] = 0
         for f in range(lead):
             v = x[j, f]
-            for m in range(GROUP):
+            for m in range(lanes):
                 t = v - q[f, m]
                 d[m] += t * t
         wanted = False
-        for m in range(GROUP):
+        for m in range(lanes):
             wanted |= d[m] < kth[m]
         if not wanted:
             continue
