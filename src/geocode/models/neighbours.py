@@ -105,8 +105,8 @@ def _principal_coordinates(feats: torch.Tensor) -> torch.Tensor:
 
 # fast maths without assuming finite values: unfilled top-k slots hold inf
 FAST = {"nsz", "arcp", "contract", "afn", "reassoc"}
-GROUP = 16  # queries searched together (lanes of the vectorised loops)
-PREFILTER = 8  # leading axes compared for every query before the rest
+GROUP = 32  # queries searched together (lanes of the vectorised loops)
+PREFILTER = 16  # leading axes compared for every query before the rest
 CELL_POINTS = 16  # about this many points per cell where the cloud is a surface
 
 
