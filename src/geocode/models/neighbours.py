@@ -64,7 +64,7 @@ def knn_cells(x: torch.Tensor, k: int, seeds: torch.Tensor | None = None) -> tor
         raise ValueError("kNN: the features hold NaN or inf (is the point cloud finite?)")
     feats = _principal_coordinates(feats).contiguous().numpy()  # (B, N, max(C, 3))
     hint = np.zeros(x.shape[:2] + (0,), np.int64) if seeds is None else seeds.to("cpu").numpy()
-    idx = _knn_in_cells(feats, k, 4 * numba.get_num_threads(), hint)
+    idx = _knn_in_cells(feats, k, 4 * _numba_threads(), hint)
     return torch.from_numpy(idx).to(x.device)
 
 
@@ -84,7 +84,15 @@ def neighbour_max(b: torch.Tensor, flat: torch.Tensor, k: int) -> torch.Tensor:
     """
     if b.device.type != "cpu":
         return b.index_select(0, flat).view(-1, k, b.shape[1]).amax(dim=1)
+    _numba_threads()
     return torch.from_numpy(_gather_max(b.detach().contiguous().numpy(), flat.numpy(), k))
+
+
+def _numba_threads() -> int:
+    """Compiled loops use as many threads as torch (OMP_NUM_THREADS, or a job's share)."""
+    threads = max(1, min(torch.get_num_threads(), numba.config.NUMBA_NUM_THREADS))
+    numba.set_num_threads(threads)
+    return threads
 
 
 def _principal_coordinates(feats: torch.Tensor) -> torch.Tensor:
