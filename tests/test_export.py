@@ -13,7 +13,7 @@ import yaml
 
 from geocode import meshio
 from geocode.blender import export
-from geocode.sampling import save_recipes
+from geocode.variations import save_recipes
 
 
 class Param:

@@ -1,4 +1,4 @@
-"""train(cfg) on the synthetic dataset of test_data: one epoch, resume, predict, bad checkpoints."""
+"""train(cfg) on the synthetic dataset of test_training_data: one epoch, resume, predict, bad checkpoints."""
 
 from pathlib import Path
 
@@ -6,7 +6,7 @@ import numpy as np
 import pandas as pd
 import pytest
 import torch
-from test_data import CAMERAS, DOMAIN, N_FPS, N_PICK, make_dataset
+from test_training_data import CAMERAS, DOMAIN, N_FPS, N_PICK, make_dataset
 
 from geocode.config import compose
 from geocode.train import CheckpointError, load_model, predict, predict_classes, train
@@ -84,8 +84,8 @@ def test_bad_checkpoints_fail_in_one_line(run, tmp_path):
 
 def test_majority_accuracy_is_the_most_frequent_train_class_scored_on_val(run):
     from geocode.config import data_dir
-    from geocode.dataset import load_recipe
-    from geocode.sampling import load_recipes
+    from geocode.recipe import load_recipe
+    from geocode.variations import load_recipes
     from geocode.train import majority_accuracy
 
     cfg, result = run

@@ -212,7 +212,7 @@ def cmd_bench(args):
         from geocode.models.bench import bench_epoch
 
         return bench_epoch(args.clouds, args.sketches, device=args.device)
-    from geocode.evaluate import bench_eval
+    from geocode.evaluation import bench_eval
 
     return bench_eval(args.domain)
 
@@ -232,7 +232,7 @@ def cmd_config(args):
 
 
 def cmd_sample(args):
-    from geocode.dataset import sample_step
+    from geocode.variations import sample_step
 
     return sample_step(step_config(args))
 
@@ -240,7 +240,7 @@ def cmd_sample(args):
 def cmd_export(args):
     from geocode.blender.export import export_shard
     from geocode.config import data_dir
-    from geocode.dataset import load_recipe
+    from geocode.recipe import load_recipe
 
     cfg = step_config(args)
     export_shard(data_dir(cfg, cfg.domain.name, args.split), args.shard, cfg.domain.name,
@@ -273,28 +273,28 @@ def cmd_train(args):
 
 
 def cmd_simplify(args):
-    from geocode.evaluate import simplify_step
+    from geocode.evaluation import simplify_step
 
     cfg = step_config(args)
     return simplify_step(cfg, cfg.domain.name, args.factor)
 
 
 def cmd_predict(args):
-    from geocode.evaluate import predict_step
+    from geocode.evaluation import predict_step
 
     cfg = step_config(args)
     return predict_step(cfg, cfg.domain.name, args.checkpoint, args.output)
 
 
 def cmd_rebuild(args):
-    from geocode.evaluate import rebuild_step
+    from geocode.evaluation import rebuild_step
 
     cfg = step_config(args)
     return rebuild_step(cfg, cfg.domain.name, args.predictions, args.shard)
 
 
 def cmd_metrics(args):
-    from geocode.evaluate import metrics_step
+    from geocode.evaluation import metrics_step
 
     cfg = step_config(args)
     return metrics_step(cfg, cfg.domain.name, args.predictions, args.output)

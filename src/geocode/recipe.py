@@ -29,6 +29,8 @@ __all__ = [
     "Recipe",
     "load_manifest",
     "parse_manifest",
+    "load_recipe",
+    "manifest_path",
 ]
 
 KINDS = ("bool", "int", "float")
@@ -637,3 +639,17 @@ def _mapping_without_duplicates(loader, node, deep=False):
 _UniqueKeyLoader.add_constructor(
     yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _mapping_without_duplicates
 )
+
+
+def manifest_path(cfg, domain: str) -> Path:
+    """The manifest that `geocode program build` writes for `domain` under the build folder."""
+    return Path(cfg.paths.build) / "programs" / f"{domain}.manifest.json"
+
+
+def load_recipe(cfg) -> Recipe:
+    """The recipe of cfg.domain (`domain.recipe`, relative to the repository), checked against
+    the parameters in its program's manifest."""
+    from geocode.config import repo_root
+
+    parameters, visibility = load_manifest(manifest_path(cfg, cfg.domain.name))
+    return Recipe.load(repo_root() / cfg.domain.recipe, parameters, visibility)

@@ -76,7 +76,7 @@ def report_step(cfg, metrics_files: list[Path], out_dir: Path, per_domain: int =
 
     from geocode.blender.gallery import render_mesh_png
     from geocode.config import config_hash, data_dir
-    from geocode.evaluate import point_input
+    from geocode.evaluation import point_input
     from geocode.meshio import read_obj
 
     out_dir = Path(out_dir)

@@ -19,7 +19,7 @@ import pytorch_lightning as pl
 import torch
 from omegaconf import DictConfig, OmegaConf
 
-from geocode.dataset import load_recipe
+from geocode.recipe import load_recipe
 from geocode.models.bench import bench_train
 from geocode.models.module import GeoCodeModule
 
@@ -61,7 +61,7 @@ def build_model(cfg: DictConfig, recipe) -> GeoCodeModule:
 
 
 def build_datamodule(cfg: DictConfig, recipe):
-    from geocode.data import GeoCodeDataModule, SketchAugment
+    from geocode.training_data import GeoCodeDataModule, SketchAugment
 
     t = cfg.train
     aug = OmegaConf.to_container(t.augment, resolve=True) if t.get("augment") else {}
@@ -149,7 +149,7 @@ def majority_accuracy(cfg: DictConfig, recipe) -> float:
     """The bar a model must clear: mean top-1 accuracy over parameters on the val split of
     always predicting each parameter's most frequent class in the train split."""
     from geocode.config import data_dir
-    from geocode.sampling import load_recipes
+    from geocode.variations import load_recipes
 
     classes = {split: recipe.class_matrix(load_recipes(data_dir(cfg, cfg.domain.name, split) / "recipes.parquet"))
                for split in ("train", "val")}

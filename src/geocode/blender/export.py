@@ -36,7 +36,7 @@ def unit_mesh(program, values: Mapping[str, float]):
 def shard_rows(recipes: str | Path, shard: int) -> Iterator[tuple[str, dict[str, float]]]:
     """(id, raw values) for the rows of `recipes.parquet` with `shard == shard`, in file order
     (the sampler's bookkeeping columns are not parameter values)."""
-    from geocode.sampling import META_COLUMNS, load_recipes
+    from geocode.variations import META_COLUMNS, load_recipes
 
     frame = load_recipes(recipes)
     frame = frame[frame["shard"] == shard]

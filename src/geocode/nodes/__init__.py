@@ -6,7 +6,7 @@ A block is a `NodeGroup`; call it inside a builder to add an instance:
     profile = rectangle_fillet(g, width=2, height=2, roundness=r)["Curve"]
 """
 
-from geocode.nodes import curves, parts, profiles, sampling, styles, symmetry, utils  # noqa: E402
+from geocode.nodes import attachment, curves, parts, profiles, styles, symmetry, utils  # noqa: E402
 from geocode.nodes.curves import (
     arc,
     bezier_segment,
@@ -14,11 +14,11 @@ from geocode.nodes.curves import (
     quadratic_cartesian,
     quadratic_polar,
 )
-from geocode.nodes.evaluate import Evaluator
+from geocode.nodes.modifier import Evaluator
 from geocode.nodes.graph import PART_ATTRIBUTE, Graph, Node
 from geocode.nodes.group import NodeGroup, node_group
 from geocode.nodes.profiles import rectangle_fillet
-from geocode.nodes.sampling import sample_curve, sample_curve_array, sample_points
+from geocode.nodes.attachment import sample_curve, sample_curve_array, sample_points
 from geocode.nodes.styles import leg, middle_expand_contract, rail, solidify, sweep
 from geocode.nodes.symmetry import mirror, radial
 from geocode.nodes.utils import align_curve_tilt_to_axis, align_curve_to_start_point
@@ -27,7 +27,7 @@ from geocode.nodes.utils import align_curve_tilt_to_axis, align_curve_to_start_p
 # styles.leg "StyleLeg"); a new block in these modules is listed without further edits.
 BLOCKS: dict[str, NodeGroup] = {
     value.name: value
-    for module in (profiles, curves, styles, sampling, symmetry, utils, parts)
+    for module in (profiles, curves, styles, attachment, symmetry, utils, parts)
     for value in vars(module).values() if isinstance(value, NodeGroup)
 }
 

@@ -1,4 +1,4 @@
-"""geocode.data on a tiny synthetic dataset written in the design.md layout.
+"""geocode.training_data on a tiny synthetic dataset written in the design.md layout.
 
 `make_dataset` writes a test double of a built program (manifest + recipe) and of a
 generated dataset (recipes.parquet, points/*.npz, sketches/*.png): no Blender involved.
@@ -12,7 +12,7 @@ import pytest
 import torch
 from PIL import Image
 
-from geocode.data import (
+from geocode.training_data import (
     GeoCodeDataModule,
     ShapeItems,
     SketchAugment,

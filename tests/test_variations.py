@@ -6,7 +6,7 @@ import pytest
 
 from geocode.expr import parse
 from geocode.recipe import Parameter, Recipe
-from geocode.sampling import (
+from geocode.variations import (
     SamplingError,
     assign_shards,
     load_recipes,

@@ -19,9 +19,9 @@ from omegaconf import DictConfig
 
 from geocode.config import data_dir
 from geocode.meshio import normalise_unit_sphere, read_obj, write_obj, write_parquet, write_text
-from geocode.sampling import load_recipes, save_recipes
+from geocode.variations import load_recipes, save_recipes
 
-log = logging.getLogger("geocode.evaluate")
+log = logging.getLogger("geocode.evaluation")
 
 KEYS = ["condition", "modality", "source", "camera", "noise", "sparse", "id"]
 
@@ -87,7 +87,7 @@ def simplify_step(cfg: DictConfig, domain: str, factor: int) -> str:
 
 def point_input(cfg: DictConfig, domain: str, cond: dict, shape_id: str) -> np.ndarray:
     """The evaluation cloud of one shape under one condition, float32 (N, 3)."""
-    from geocode.data import eval_cloud
+    from geocode.training_data import eval_cloud
     from geocode.points import add_noise, load_clouds, sparse_cloud
 
     rng = id_seed(cfg.seed, "eval", cond["condition"], shape_id)
@@ -109,8 +109,8 @@ def sketch_path(cfg: DictConfig, domain: str, cond: dict, shape_id: str) -> Path
 
 def predict_step(cfg: DictConfig, domain: str, checkpoint: Path, out: Path) -> str:
     """Predict every condition's test inputs, denormalise, and write one parquet of values."""
-    from geocode.data import load_sketch
-    from geocode.dataset import load_recipe
+    from geocode.training_data import load_sketch
+    from geocode.recipe import load_recipe
     from geocode.train import load_model, predict_classes
 
     recipe = load_recipe(cfg)

@@ -1,4 +1,5 @@
-"""Dataset sampling (SPEC §3): per-class variations, constraints, visibility, dedup, seeds (no bpy).
+"""Which shapes a dataset holds (SPEC §3): per-class variations, constraints, visibility,
+dedup, seeds, and the sampling step that writes each split's recipes.parquet (no bpy).
 
 For every recipe parameter and every one of its value classes, N shapes per split: the other
 recipe parameters are drawn uniformly over their value classes, this one is forced to its
@@ -20,15 +21,20 @@ comes first so that it does not change when the training set grows.
 from __future__ import annotations
 
 import hashlib
+import logging
 import os
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
+from omegaconf import DictConfig
 
+from geocode.config import data_dir
 from geocode.meshio import write_parquet
-from geocode.recipe import Recipe
+from geocode.recipe import Recipe, load_recipe
+
+log = logging.getLogger("geocode.sample")
 
 __all__ = [
     "SPLIT_ORDER",
@@ -324,3 +330,29 @@ def load_recipes(path: str | os.PathLike) -> pd.DataFrame:
     if missing:
         raise ValueError(f"{path}: no column {missing[0]!r}; rerun the sample step")
     return frame
+
+
+SPLITS = ("train", "val", "test")
+
+
+def spread_subset(frame: pd.DataFrame, keep: int | None) -> pd.DataFrame:
+    """At most `keep` rows, evenly spread over the frame so every forced parameter shows up."""
+    if keep is None or len(frame) <= keep:
+        return frame
+    rows = np.unique(np.linspace(0, len(frame) - 1, keep).round().astype(int))
+    return frame.iloc[rows].reset_index(drop=True)
+
+
+def sample_step(cfg: DictConfig) -> str:
+    domain = cfg.domain.name
+    recipe = load_recipe(cfg)
+    splits = sample_dataset(recipe, dict(cfg.data.variations), seed=cfg.seed, domain=domain)
+    counts = []
+    for split in SPLITS:
+        frame = spread_subset(splits[split], cfg.data.max_shapes[split])
+        frame = assign_shards(frame, cfg.data.shards)
+        save_recipes(frame, data_dir(cfg, domain, split) / "recipes.parquet")
+        counts.append(f"{split} {len(frame)}")
+    summary = f"{domain}: " + ", ".join(counts) + " shapes"
+    log.info(summary)
+    return summary

@@ -92,7 +92,7 @@ class SplitData:
 
 def load_split(split_dir: str | Path, recipe, cameras: Sequence[str]) -> SplitData:
     """Read a split folder: labels from recipes.parquet, clouds and sketches in parallel."""
-    from geocode.sampling import load_recipes
+    from geocode.variations import load_recipes
 
     split_dir = Path(split_dir)
     frame = load_recipes(split_dir / "recipes.parquet")
