@@ -85,8 +85,8 @@ def test_bad_checkpoints_fail_in_one_line(run, tmp_path):
 def test_majority_accuracy_is_the_most_frequent_train_class_scored_on_val(run):
     from geocode.config import data_dir
     from geocode.recipe import load_recipe
-    from geocode.variations import load_recipes
     from geocode.train import majority_accuracy
+    from geocode.variations import load_recipes
 
     cfg, result = run
     recipe = load_recipe(cfg)

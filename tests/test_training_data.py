@@ -12,6 +12,7 @@ import pytest
 import torch
 from PIL import Image
 
+from geocode.recipe import Recipe, load_manifest
 from geocode.training_data import (
     GeoCodeDataModule,
     ShapeItems,
@@ -20,7 +21,6 @@ from geocode.training_data import (
     load_sketch,
     load_split,
 )
-from geocode.recipe import Recipe, load_manifest
 
 DOMAIN = "toy"
 CAMERAS = ["az35", "az55"]

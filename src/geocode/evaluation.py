@@ -87,8 +87,8 @@ def simplify_step(cfg: DictConfig, domain: str, factor: int) -> str:
 
 def point_input(cfg: DictConfig, domain: str, cond: dict, shape_id: str) -> np.ndarray:
     """The evaluation cloud of one shape under one condition, float32 (N, 3)."""
-    from geocode.training_data import eval_cloud
     from geocode.points import add_noise, load_clouds, sparse_cloud
+    from geocode.training_data import eval_cloud
 
     rng = id_seed(cfg.seed, "eval", cond["condition"], shape_id)
     if cond["sparse"]:
@@ -109,9 +109,9 @@ def sketch_path(cfg: DictConfig, domain: str, cond: dict, shape_id: str) -> Path
 
 def predict_step(cfg: DictConfig, domain: str, checkpoint: Path, out: Path) -> str:
     """Predict every condition's test inputs, denormalise, and write one parquet of values."""
-    from geocode.training_data import load_sketch
     from geocode.recipe import load_recipe
     from geocode.train import load_model, predict_classes
+    from geocode.training_data import load_sketch
 
     recipe = load_recipe(cfg)
     model = load_model(checkpoint)

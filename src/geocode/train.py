@@ -19,9 +19,9 @@ import pytorch_lightning as pl
 import torch
 from omegaconf import DictConfig, OmegaConf
 
-from geocode.recipe import load_recipe
 from geocode.models.bench import bench_train
 from geocode.models.module import GeoCodeModule
+from geocode.recipe import load_recipe
 
 log = logging.getLogger(__name__)
 

@@ -7,6 +7,7 @@ A block is a `NodeGroup`; call it inside a builder to add an instance:
 """
 
 from geocode.nodes import attachment, curves, parts, profiles, styles, symmetry, utils  # noqa: E402
+from geocode.nodes.attachment import sample_curve, sample_curve_array, sample_points
 from geocode.nodes.curves import (
     arc,
     bezier_segment,
@@ -14,11 +15,10 @@ from geocode.nodes.curves import (
     quadratic_cartesian,
     quadratic_polar,
 )
-from geocode.nodes.modifier import Evaluator
 from geocode.nodes.graph import PART_ATTRIBUTE, Graph, Node
 from geocode.nodes.group import NodeGroup, node_group
+from geocode.nodes.modifier import Evaluator
 from geocode.nodes.profiles import rectangle_fillet
-from geocode.nodes.attachment import sample_curve, sample_curve_array, sample_points
 from geocode.nodes.styles import leg, middle_expand_contract, rail, solidify, sweep
 from geocode.nodes.symmetry import mirror, radial
 from geocode.nodes.utils import align_curve_tilt_to_axis, align_curve_to_start_point
