@@ -1,0 +1,198 @@
+"""The ceiling lamp program: a canopy on the ceiling, a rod hanging from it, arms leaving a
+hub on the rod, and a shade with a bulb at the end of each arm (21 parameters: 2 discrete,
+19 continuous).
+
+Layout: z = up, the ceiling is the plane z = 0 and the lamp hangs below it. Structure
+(every part hangs from the canopy through the others, for every parameter combination):
+- canopy: a dome-like sweep of a RectangleFillet outline (square to round) whose top lies
+  on the ceiling;
+- rod: a MeshStraightFrame from inside the canopy straight down by `rod_length`;
+- hub: a cylinder on the rod at the point sampled at `arm_attach` of the rod's length
+  (SampleCurve), so the arms follow the rod when it lengthens;
+- arms: a MeshQuadraticCartesian from inside the hub out to `hub_radius + arm_length`
+  and `arm_rise` up, bowed up by `arm_curvature` (it always arrives level or falling, so it
+  never runs through its shade), copied about the rod by SymmetryRadial;
+- socket: a short vertical cylinder around each arm's end;
+- shade: a StyleShell (open rim, closed top, a wall of `shade_thickness`) hanging from the
+  socket, which pierces its top; its profile along the height is a cone, a bell, a cylinder
+  or a globe (an Index Switch), its rim radius `shade_size` shrunk where needed so that
+  neighbouring shades never touch each other or the hub;
+- bulb: a round sweep hanging from the socket's bottom inside the shade.
+Part labels: canopy 1, rod 2, hub 3, arms 4, sockets 5, shades 6, bulbs 7.
+The lamp hangs: `HANGS` tells the evaluation that a drop test does not apply to it.
+"""
+
+from __future__ import annotations
+
+import math
+
+from geocode.nodes import (
+    Graph,
+    align_curve_tilt_to_axis,
+    radial,
+    rectangle_fillet,
+    sample_curve,
+    shell,
+    sweep,
+)
+from geocode.nodes.parts import quadratic_cartesian_mesh, straight_frame
+
+HANGS = True  # hung from the ceiling: valid = one piece; no drop test (stability "n/a")
+
+CANOPY, ROD, HUB, ARMS, SOCKETS, SHADES, BULBS = range(1, 8)
+CONE, BELL, CYLINDER, GLOBE = range(4)
+
+SOCKET_LENGTH = 0.035   # a socket reaches this far below its arm's end ...
+SOCKET_WIDTH = 1.8      # ... and is this many arm radii wide
+SHADE_GAP = 0.85        # a shade's half-width stays below this share of the free room
+BULB_FIT = 0.6          # a bulb's radius stays below this share of its shade's rim
+GLOBE_RIM = 0.25        # a globe's bottom opening, per unit of its width
+SHADE_RINGS = 10        # path points along a shade's height
+CANOPY_BULGE = 0.4      # the canopy narrows by this share from the ceiling to its bottom
+
+
+def _parameters(g: Graph) -> dict:
+    p = {}
+
+    def add(name, kind, default, low, high, description):
+        p[name] = g.input(name, kind, default=default, min=low, max=high,
+                          description=description)
+
+    add("canopy_radius", "float", 0.08, 0.05, 0.14, "half-width of the canopy on the ceiling")
+    add("canopy_height", "float", 0.03, 0.02, 0.06, "height of the canopy")
+    add("canopy_roundness", "float", 1.0, 0.0, 1.0, "canopy outline: 0 square, 1 round")
+    add("rod_length", "float", 0.5, 0.25, 0.9, "length of the rod below the canopy")
+    add("rod_thickness", "float", 0.01, 0.006, 0.018, "radius of the rod")
+    add("arm_attach", "float", 1.0, 0.5, 1.0, "where the hub sits on the rod (fraction)")
+    add("hub_radius", "float", 0.04, 0.025, 0.08, "radius of the hub the arms leave from")
+    add("hub_height", "float", 0.04, 0.03, 0.08, "height of the hub")
+    add("arm_count", "int", 5, 2, 8, "number of arms (radial symmetry)")
+    add("arm_length", "float", 0.3, 0.15, 0.45, "radial reach of an arm beyond the hub")
+    add("arm_rise", "float", -0.05, -0.25, 0.08, "height of an arm's end above its start")
+    add("arm_curvature", "float", 0.4, 0.0, 1.0, "arm bow: 0 arrives level, 1 arches up")
+    add("arm_thickness", "float", 0.008, 0.005, 0.012, "radius of an arm")
+    add("shade_shape", "int", CONE, CONE, GLOBE, "shade: 0 cone, 1 bell, 2 cylinder, 3 globe")
+    add("shade_size", "float", 0.1, 0.05, 0.16, "half-width of a shade's rim")
+    add("shade_height", "float", 0.12, 0.06, 0.22, "height of a shade")
+    add("shade_top", "float", 0.4, 0.2, 0.8, "top width per rim width (cone, bell, globe)")
+    add("shade_flare", "float", 0.5, 0.0, 1.0, "how sharply a bell flares at its rim")
+    add("shade_roundness", "float", 1.0, 0.0, 1.0, "shade cross-section: 0 square, 1 round")
+    add("shade_thickness", "float", 0.005, 0.003, 0.01, "thickness of a shade's wall")
+    add("bulb_size", "float", 0.025, 0.015, 0.04, "radius of a bulb")
+    return p
+
+
+def _vertical_path(g: Graph, x, bottom, top, points: int):
+    """Path at distance x from the axis (on +X) from z=bottom up to z=top, its profile's X
+    pinned to world X."""
+    line = g.node("GeometryNodeCurvePrimitiveLine", {
+        "Start": g.combine(x, 0.0, bottom), "End": g.combine(x, 0.0, top)})
+    path = g.node("GeometryNodeResampleCurve", {"Curve": line, "Mode": "Count",
+                                                "Count": points}).out
+    return align_curve_tilt_to_axis(g, curve=path, axis=(1.0, 0.0, 0.0))["Curve"]
+
+
+def _outline(g: Graph, roundness, resolution: int):
+    """A 2 x 2 square-to-round outline: sweeps scale it by their half-width."""
+    return rectangle_fillet(g, width=2.0, height=2.0, roundness=roundness,
+                            resolution=resolution)["Curve"]
+
+
+def _corner_reach(g: Graph, roundness):
+    """How far the outline reaches from its centre, per unit half-width: sqrt(2) for a
+    square, 1 for a circle."""
+    return g.add(g.mul(g.sub(1.0, roundness), math.sqrt(2.0)), roundness)
+
+
+def _canopy(g: Graph, p: dict):
+    """Widest on the ceiling, narrowing by CANOPY_BULGE towards its bottom."""
+    path = _vertical_path(g, 0.0, g.mul(p["canopy_height"], -1.0), 0.0, 6)
+    below = g.sub(1.0, g.spline_factor())
+    scale = g.mul(p["canopy_radius"], g.sub(1.0, g.mul(CANOPY_BULGE, g.mul(below, below))))
+    return sweep(g, curve=path, profile_curve=_outline(g, p["canopy_roundness"], 4),
+                 scale=scale, fill_caps=True, part=CANOPY)["Mesh"]
+
+
+class _Arm:
+    """One arm on +X (the radial copies make the others): its ends and its shade's room."""
+
+    def __init__(self, g: Graph, p: dict, hub_z):
+        self.start = g.combine(g.mul(p["hub_radius"], 0.5), 0.0, hub_z)
+        self.reach = g.add(p["hub_radius"], p["arm_length"])
+        self.end_z = g.add(hub_z, p["arm_rise"])
+        self.end = g.combine(self.reach, 0.0, self.end_z)
+        # the middle control point rises over the end: the arm arrives level or falling
+        lift = g.add(g.mul(p["arm_rise"], 0.5), g.mul(p["arm_curvature"],
+                                                      g.mul(p["arm_length"], 0.4)))
+        self.mesh = quadratic_cartesian_mesh(
+            g, start=self.start, end=self.end, offset=g.combine(0.0, 0.0, lift),
+            radius=p["arm_thickness"], roundness=1.0, axis=(0.0, 1.0, 0.0), part=ARMS)["Mesh"]
+        self.socket_bottom = g.sub(self.end_z, SOCKET_LENGTH)
+        self.shade_top = g.sub(self.end_z, SOCKET_LENGTH / 2)
+        # room for half a shade: half the gap to the next arm's shade, and the arm's length
+        # (clear of the hub); a square outline reaches out by its corner
+        between = g.mul(self.reach, g.math("SINE", g.div(math.pi, p["arm_count"])))
+        room = g.div(g.mul(g.minimum(between, p["arm_length"]), SHADE_GAP),
+                     _corner_reach(g, p["shade_roundness"]))
+        self.rim = g.minimum(p["shade_size"], room)
+
+
+def _socket(g: Graph, p: dict, arm: _Arm):
+    top = g.combine(arm.reach, 0.0, g.add(arm.end_z, g.mul(p["arm_thickness"], 1.5)))
+    bottom = g.combine(arm.reach, 0.0, arm.socket_bottom)
+    width = g.mul(p["arm_thickness"], 2 * SOCKET_WIDTH)
+    return straight_frame(g, start=top, end=bottom, width=width, depth=width, roundness=1.0,
+                          part=SOCKETS)["Mesh"]
+
+
+def _shade_profile(g: Graph, p: dict):
+    """The shade's half-width per unit rim half-width at t (0 = rim, 1 = top)."""
+    t = g.spline_factor()
+    top = p["shade_top"]
+    cone = g.lerp(1.0, top, t)
+    power = g.add(1.0, g.mul(p["shade_flare"], 3.0))
+    bell = g.add(top, g.mul(g.sub(1.0, top), g.math("POWER", g.sub(1.0, t), power)))
+    # a sphere's outline, kept open at the rim and at the top
+    centred = g.sub(g.mul(t, 2.0), 1.0)
+    sphere = g.math("SQRT", g.maximum(g.sub(1.0, g.mul(centred, centred)), 0.0))
+    globe = g.maximum(sphere, g.lerp(GLOBE_RIM, top, t))
+    return g.index_switch(p["shade_shape"], [cone, bell, 1.0, globe], data_type="FLOAT")
+
+
+def _shade(g: Graph, p: dict, arm: _Arm):
+    path = _vertical_path(g, arm.reach, g.sub(arm.shade_top, p["shade_height"]),
+                          arm.shade_top, SHADE_RINGS)
+    return shell(g, curve=path, profile_curve=_outline(g, p["shade_roundness"], 3),
+                 scale=g.mul(arm.rim, _shade_profile(g, p)), thickness=p["shade_thickness"],
+                 part=SHADES)["Mesh"]
+
+
+def _bulb(g: Graph, p: dict, arm: _Arm):
+    """A round bulb whose top reaches into the socket."""
+    radius = g.minimum(p["bulb_size"], g.mul(arm.rim, BULB_FIT))
+    top = g.add(arm.socket_bottom, g.mul(radius, 0.2))
+    path = _vertical_path(g, arm.reach, g.sub(top, g.mul(radius, 1.8)), top, 8)
+    # a sphere's outline over 0.9 of its height, flat at both ends
+    centred = g.sub(g.mul(g.spline_factor(), 1.8), 0.9)
+    scale = g.mul(radius, g.math("SQRT", g.sub(1.0, g.mul(centred, centred))))
+    return sweep(g, curve=path, profile_curve=_outline(g, 1.0, 2), scale=scale,
+                 fill_caps=True, part=BULBS)["Mesh"]
+
+
+def build(g: Graph) -> None:
+    p = _parameters(g)
+    top = g.mul(p["canopy_height"], -0.5)  # the rod starts inside the canopy
+    bottom = g.sub(g.mul(p["canopy_height"], -1.0), p["rod_length"])
+    rod = straight_frame(g, start=g.combine(0.0, 0.0, top), end=g.combine(0.0, 0.0, bottom),
+                         width=g.mul(p["rod_thickness"], 2.0),
+                         depth=g.mul(p["rod_thickness"], 2.0), roundness=1.0, part=ROD)
+    hub_z = g.separate(sample_curve(g, curve=rod["Curve"], factor=p["arm_attach"])["Position"])["Z"]
+    half = g.mul(p["hub_height"], 0.5)
+    hub = straight_frame(g, start=g.combine(0.0, 0.0, g.add(hub_z, half)),
+                         end=g.combine(0.0, 0.0, g.sub(hub_z, half)),
+                         width=g.mul(p["hub_radius"], 2.0), depth=g.mul(p["hub_radius"], 2.0),
+                         roundness=1.0, part=HUB)["Mesh"]
+    arm = _Arm(g, p, hub_z)
+    one = g.join([arm.mesh, _socket(g, p, arm), _shade(g, p, arm), _bulb(g, p, arm)])
+    arms = radial(g, geometry=one, count=p["arm_count"], radius=0.0)["Geometry"]
+    g.output("Geometry", "geometry", g.join([_canopy(g, p), rod["Mesh"], hub, arms]))

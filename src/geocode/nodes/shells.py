@@ -1,0 +1,40 @@
+"""Shells: thin-walled vessels (a lamp shade, a cup) swept from a profile.
+
+A shell is a triplet whose sweep keeps one cap and loses the other: closed where the path
+ends, open where it starts, then given a wall by Solidify.
+"""
+
+from __future__ import annotations
+
+from geocode.nodes.graph import Graph
+from geocode.nodes.group import node_group
+from geocode.nodes.styles import _triplet_inputs, solidify, sweep
+
+# Curve to Mesh makes the side of a sweep from quads and each cap from one n-gon of the
+# profile's points (a RectangleFillet has at least 12)
+_SIDE_CORNERS = 4
+
+
+@node_group("StyleShell")
+def shell(g: Graph) -> None:
+    """Sweep `Profile Curve` along `Curve` scaled by the field `Scale`, open at the path's
+    start and closed at its end, with a wall of `Thickness` (StyleSolidify). The profile
+    needs more than four points (a RectangleFillet has)."""
+    curve, profile, _, part = _triplet_inputs(g)
+    scale = g.input("Scale", "float", default=1.0)
+    thickness = g.input("Thickness", "float", default=0.01, min=0.0)
+    closed = sweep(g, curve=curve, profile_curve=profile, scale=scale, fill_caps=True,
+                   part=part)["Mesh"]
+    start = g.node("GeometryNodeSampleCurve", {"Curves": curve, "Factor": 0.0},
+                   mode="FACTOR", use_all_curves=False)["Position"]
+    end = g.node("GeometryNodeSampleCurve", {"Curves": curve, "Factor": 1.0},
+                 mode="FACTOR", use_all_curves=False)["Position"]
+    # a face's position is its centre: the start cap is the n-gon nearer the path's start
+    corners = g.node("GeometryNodeInputMeshFaceNeighbors")["Vertex Count"]
+    is_cap = g.compare("GREATER_THAN", corners, _SIDE_CORNERS, data_type="INT")
+    near_start = g.compare("LESS_THAN", g.vmath("DISTANCE", g.position(), start),
+                           g.vmath("DISTANCE", g.position(), end), data_type="FLOAT")
+    opened = g.node("GeometryNodeDeleteGeometry", {
+        "Geometry": closed, "Selection": g.boolean("AND", is_cap, near_start),
+    }, domain="FACE", mode="ONLY_FACE").out
+    g.output("Mesh", "geometry", solidify(g, mesh=opened, thickness=thickness)["Mesh"])
