@@ -85,10 +85,7 @@ def _parameters(g: Graph) -> dict:
 def _vertical_path(g: Graph, x, bottom, top, points: int):
     """Path at distance x from the axis (on +X) from z=bottom up to z=top, its profile's X
     pinned to world X."""
-    line = g.node("GeometryNodeCurvePrimitiveLine", {
-        "Start": g.combine(x, 0.0, bottom), "End": g.combine(x, 0.0, top)})
-    path = g.node("GeometryNodeResampleCurve", {"Curve": line, "Mode": "Count",
-                                                "Count": points}).out
+    path = g.line(g.vec(x, 0.0, bottom), g.vec(x, 0.0, top), count=points)
     return align_curve_tilt_to_axis(g, curve=path, axis=(1.0, 0.0, 0.0))["Curve"]
 
 
@@ -98,17 +95,17 @@ def _outline(g: Graph, roundness, resolution: int):
                             resolution=resolution)["Curve"]
 
 
-def _corner_reach(g: Graph, roundness):
+def _corner_reach(roundness):
     """How far the outline reaches from its centre, per unit half-width: sqrt(2) for a
     square, 1 for a circle."""
-    return g.add(g.mul(g.sub(1.0, roundness), math.sqrt(2.0)), roundness)
+    return (1.0 - roundness) * math.sqrt(2.0) + roundness
 
 
 def _canopy(g: Graph, p: dict):
     """Widest on the ceiling, narrowing by CANOPY_BULGE towards its bottom."""
-    path = _vertical_path(g, 0.0, g.mul(p["canopy_height"], -1.0), 0.0, 6)
-    below = g.sub(1.0, g.spline_factor())
-    scale = g.mul(p["canopy_radius"], g.sub(1.0, g.mul(CANOPY_BULGE, g.mul(below, below))))
+    path = _vertical_path(g, 0.0, -p["canopy_height"], 0.0, 6)
+    below = 1.0 - g.spline_factor()
+    scale = p["canopy_radius"] * (1.0 - CANOPY_BULGE * below * below)
     return sweep(g, curve=path, profile_curve=_outline(g, p["canopy_roundness"], 4),
                  scale=scale, fill_caps=True, part=CANOPY)["Mesh"]
 
@@ -117,81 +114,76 @@ class _Arm:
     """One arm on +X (the radial copies make the others): its ends and its shade's room."""
 
     def __init__(self, g: Graph, p: dict, hub_z):
-        self.start = g.combine(g.mul(p["hub_radius"], 0.5), 0.0, hub_z)
-        self.reach = g.add(p["hub_radius"], p["arm_length"])
-        self.end_z = g.add(hub_z, p["arm_rise"])
-        self.end = g.combine(self.reach, 0.0, self.end_z)
+        self.reach = p["hub_radius"] + p["arm_length"]
+        self.end_z = hub_z + p["arm_rise"]
         # the middle control point rises over the end: the arm arrives level or falling
-        lift = g.add(g.mul(p["arm_rise"], 0.5), g.mul(p["arm_curvature"],
-                                                      g.mul(p["arm_length"], 0.4)))
+        lift = p["arm_rise"] * 0.5 + p["arm_curvature"] * p["arm_length"] * 0.4
         self.mesh = quadratic_cartesian_mesh(
-            g, start=self.start, end=self.end, offset=g.combine(0.0, 0.0, lift),
+            g, start=g.vec(p["hub_radius"] * 0.5, 0.0, hub_z),
+            end=g.vec(self.reach, 0.0, self.end_z), offset=g.vec(0.0, 0.0, lift),
             radius=p["arm_thickness"], roundness=1.0, axis=(0.0, 1.0, 0.0), part=ARMS)["Mesh"]
-        self.socket_bottom = g.sub(self.end_z, SOCKET_LENGTH)
-        self.shade_top = g.sub(self.end_z, SOCKET_LENGTH / 2)
+        self.socket_bottom = self.end_z - SOCKET_LENGTH
+        self.shade_top = self.end_z - SOCKET_LENGTH / 2
         # room for half a shade: half the gap to the next arm's shade, and the arm's length
         # (clear of the hub); a square outline reaches out by its corner
-        between = g.mul(self.reach, g.math("SINE", g.div(math.pi, p["arm_count"])))
-        room = g.div(g.mul(g.minimum(between, p["arm_length"]), SHADE_GAP),
-                     _corner_reach(g, p["shade_roundness"]))
-        self.rim = g.minimum(p["shade_size"], room)
+        between = self.reach * g.sin(math.pi / p["arm_count"])
+        room = g.min(between, p["arm_length"]) * SHADE_GAP / _corner_reach(p["shade_roundness"])
+        self.rim = g.min(p["shade_size"], room)
 
 
 def _socket(g: Graph, p: dict, arm: _Arm):
-    top = g.combine(arm.reach, 0.0, g.add(arm.end_z, g.mul(p["arm_thickness"], 1.5)))
-    bottom = g.combine(arm.reach, 0.0, arm.socket_bottom)
-    width = g.mul(p["arm_thickness"], 2 * SOCKET_WIDTH)
+    top = g.vec(arm.reach, 0.0, arm.end_z + p["arm_thickness"] * 1.5)
+    bottom = g.vec(arm.reach, 0.0, arm.socket_bottom)
+    width = p["arm_thickness"] * (2 * SOCKET_WIDTH)
     return straight_frame(g, start=top, end=bottom, width=width, depth=width, roundness=1.0,
                           part=SOCKETS)["Mesh"]
 
 
 def _shade_profile(g: Graph, p: dict):
     """The shade's half-width per unit rim half-width at t (0 = rim, 1 = top)."""
-    t = g.spline_factor()
-    top = p["shade_top"]
+    t, top = g.spline_factor(), p["shade_top"]
     cone = g.lerp(1.0, top, t)
-    power = g.add(1.0, g.mul(p["shade_flare"], 3.0))
-    bell = g.add(top, g.mul(g.sub(1.0, top), g.math("POWER", g.sub(1.0, t), power)))
+    bell = top + (1.0 - top) * g.math("POWER", 1.0 - t, 1.0 + p["shade_flare"] * 3.0)
     # a sphere's outline, kept open at the rim and at the top
-    centred = g.sub(g.mul(t, 2.0), 1.0)
-    sphere = g.math("SQRT", g.maximum(g.sub(1.0, g.mul(centred, centred)), 0.0))
-    globe = g.maximum(sphere, g.lerp(GLOBE_RIM, top, t))
+    centred = t * 2.0 - 1.0
+    globe = g.max(g.sqrt(g.max(1.0 - centred * centred, 0.0)), g.lerp(GLOBE_RIM, top, t))
     return g.index_switch(p["shade_shape"], [cone, bell, 1.0, globe], data_type="FLOAT")
 
 
 def _shade(g: Graph, p: dict, arm: _Arm):
-    path = _vertical_path(g, arm.reach, g.sub(arm.shade_top, p["shade_height"]),
-                          arm.shade_top, SHADE_RINGS)
+    path = _vertical_path(g, arm.reach, arm.shade_top - p["shade_height"], arm.shade_top,
+                          SHADE_RINGS)
     return shell(g, curve=path, profile_curve=_outline(g, p["shade_roundness"], 3),
-                 scale=g.mul(arm.rim, _shade_profile(g, p)), thickness=p["shade_thickness"],
+                 scale=arm.rim * _shade_profile(g, p), thickness=p["shade_thickness"],
                  part=SHADES)["Mesh"]
 
 
 def _bulb(g: Graph, p: dict, arm: _Arm):
     """A round bulb whose top reaches into the socket."""
-    radius = g.minimum(p["bulb_size"], g.mul(arm.rim, BULB_FIT))
-    top = g.add(arm.socket_bottom, g.mul(radius, 0.2))
-    path = _vertical_path(g, arm.reach, g.sub(top, g.mul(radius, 1.8)), top, 8)
+    radius = g.min(p["bulb_size"], arm.rim * BULB_FIT)
+    top = arm.socket_bottom + radius * 0.2
+    path = _vertical_path(g, arm.reach, top - radius * 1.8, top, 8)
     # a sphere's outline over 0.9 of its height, flat at both ends
-    centred = g.sub(g.mul(g.spline_factor(), 1.8), 0.9)
-    scale = g.mul(radius, g.math("SQRT", g.sub(1.0, g.mul(centred, centred))))
-    return sweep(g, curve=path, profile_curve=_outline(g, 1.0, 2), scale=scale,
-                 fill_caps=True, part=BULBS)["Mesh"]
+    centred = g.spline_factor() * 1.8 - 0.9
+    return sweep(g, curve=path, profile_curve=_outline(g, 1.0, 2),
+                 scale=radius * g.sqrt(1.0 - centred * centred), fill_caps=True,
+                 part=BULBS)["Mesh"]
+
+
+def _upright(g: Graph, top, bottom, radius, part):
+    """A vertical cylinder on the axis from z=top down to z=bottom."""
+    return straight_frame(g, start=g.vec(0.0, 0.0, top), end=g.vec(0.0, 0.0, bottom),
+                          width=radius * 2.0, depth=radius * 2.0, roundness=1.0, part=part)
 
 
 def build(g: Graph) -> None:
     p = _parameters(g)
-    top = g.mul(p["canopy_height"], -0.5)  # the rod starts inside the canopy
-    bottom = g.sub(g.mul(p["canopy_height"], -1.0), p["rod_length"])
-    rod = straight_frame(g, start=g.combine(0.0, 0.0, top), end=g.combine(0.0, 0.0, bottom),
-                         width=g.mul(p["rod_thickness"], 2.0),
-                         depth=g.mul(p["rod_thickness"], 2.0), roundness=1.0, part=ROD)
-    hub_z = g.separate(sample_curve(g, curve=rod["Curve"], factor=p["arm_attach"])["Position"])["Z"]
-    half = g.mul(p["hub_height"], 0.5)
-    hub = straight_frame(g, start=g.combine(0.0, 0.0, g.add(hub_z, half)),
-                         end=g.combine(0.0, 0.0, g.sub(hub_z, half)),
-                         width=g.mul(p["hub_radius"], 2.0), depth=g.mul(p["hub_radius"], 2.0),
-                         roundness=1.0, part=HUB)["Mesh"]
+    # the rod starts inside the canopy; the hub sits where the rod is sampled
+    rod = _upright(g, p["canopy_height"] * -0.5, -p["canopy_height"] - p["rod_length"],
+                   p["rod_thickness"], ROD)
+    hub_z = sample_curve(g, curve=rod["Curve"], factor=p["arm_attach"])["Position"].z
+    half = p["hub_height"] * 0.5
+    hub = _upright(g, hub_z + half, hub_z - half, p["hub_radius"], HUB)["Mesh"]
     arm = _Arm(g, p, hub_z)
     one = g.join([arm.mesh, _socket(g, p, arm), _shade(g, p, arm), _bulb(g, p, arm)])
     arms = radial(g, geometry=one, count=p["arm_count"], radius=0.0)["Geometry"]

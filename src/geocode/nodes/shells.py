@@ -6,9 +6,10 @@ ends, open where it starts, then given a wall by Solidify.
 
 from __future__ import annotations
 
+from geocode.nodes.attachment import sample_curve
 from geocode.nodes.graph import Graph
 from geocode.nodes.group import node_group
-from geocode.nodes.styles import _triplet_inputs, solidify, sweep
+from geocode.nodes.styles import solidify, sweep
 
 # Curve to Mesh makes the side of a sweep from quads and each cap from one n-gon of the
 # profile's points (a RectangleFillet has at least 12)
@@ -20,21 +21,17 @@ def shell(g: Graph) -> None:
     """Sweep `Profile Curve` along `Curve` scaled by the field `Scale`, open at the path's
     start and closed at its end, with a wall of `Thickness` (StyleSolidify). The profile
     needs more than four points (a RectangleFillet has)."""
-    curve, profile, _, part = _triplet_inputs(g)
+    curve = g.input("Curve", "geometry")
+    profile = g.input("Profile Curve", "geometry")
     scale = g.input("Scale", "float", default=1.0)
     thickness = g.input("Thickness", "float", default=0.01, min=0.0)
+    part = g.input("Part", "int", default=0, min=0)
     closed = sweep(g, curve=curve, profile_curve=profile, scale=scale, fill_caps=True,
                    part=part)["Mesh"]
-    start = g.node("GeometryNodeSampleCurve", {"Curves": curve, "Factor": 0.0},
-                   mode="FACTOR", use_all_curves=False)["Position"]
-    end = g.node("GeometryNodeSampleCurve", {"Curves": curve, "Factor": 1.0},
-                 mode="FACTOR", use_all_curves=False)["Position"]
+    start, end = (sample_curve(g, curve=curve, factor=f)["Position"] for f in (0.0, 1.0))
     # a face's position is its centre: the start cap is the n-gon nearer the path's start
     corners = g.node("GeometryNodeInputMeshFaceNeighbors")["Vertex Count"]
-    is_cap = g.compare("GREATER_THAN", corners, _SIDE_CORNERS, data_type="INT")
-    near_start = g.compare("LESS_THAN", g.vmath("DISTANCE", g.position(), start),
-                           g.vmath("DISTANCE", g.position(), end), data_type="FLOAT")
-    opened = g.node("GeometryNodeDeleteGeometry", {
-        "Geometry": closed, "Selection": g.boolean("AND", is_cap, near_start),
-    }, domain="FACE", mode="ONLY_FACE").out
+    is_start_cap = (corners > _SIDE_CORNERS) & (
+        g.distance(g.position(), start) < g.distance(g.position(), end))
+    opened = g.delete_faces(closed, is_start_cap)
     g.output("Mesh", "geometry", solidify(g, mesh=opened, thickness=thickness)["Mesh"])
