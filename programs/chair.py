@@ -27,9 +27,9 @@ import math
 from geocode.nodes import Graph, mirror, radial, rectangle_fillet, sample_curve, sample_curve_array
 from geocode.nodes.parts import (
     cross_rail,
-    cushion,
+    cushion_mesh,
     frame_fixed_bottom,
-    leg,
+    leg_mesh,
     quadratic_cartesian_aligned_xy_frame,
     quadratic_cartesian_mesh,
     quadratic_polar_frame,
@@ -179,7 +179,7 @@ class _Chair:
 
 def _cushion(c: _Chair):
     g, p = c.g, c.p
-    pillow = cushion(g, width=SEAT_SIZE * 0.97, depth=SEAT_SIZE * 0.97,
+    pillow = cushion_mesh(g, width=SEAT_SIZE * 0.97, depth=SEAT_SIZE * 0.97,
                      roundness=p["seat_roundness"],
                      bottom=g.sub(p["seat_height"], g.mul(p["seat_thickness"], 0.2)),
                      thickness=p["cushion_thickness"], fill=p["cushion_fill"], part=CUSHION)
@@ -198,7 +198,7 @@ def _four_legs(c: _Chair):
             "back": g.combine(g.add(x, splay), g.add(g.add(y, splay), p["back_leg_offset"]),
                               0.0)}
     tops = {"front": g.combine(x, g.mul(y, -1.0), c.inside), "back": g.combine(x, y, c.inside)}
-    legs = [leg(g, top=tops[k], bottom=feet[k], curvature=p["leg_curvature"],
+    legs = [leg_mesh(g, top=tops[k], bottom=feet[k], curvature=p["leg_curvature"],
                 top_radius=p["leg_thickness"],
                 bottom_radius=g.mul(p["leg_thickness"], p["leg_taper"]),
                 roundness=p["leg_bevel"], part=LEGS)["Mesh"] for k in ("front", "back")]

@@ -18,7 +18,7 @@ from __future__ import annotations
 from geocode.nodes import (
     Graph,
     handle,
-    leg,
+    leg_style,
     middle_expand_contract,
     node_group,
     quadratic_cartesian,
@@ -256,7 +256,7 @@ def _legs(body: _Body):
     curve = quadratic_cartesian(g, start=start, end=end,
                                 offset=g.combine(g.mul(p["leg_splay"], 0.3), 0.0, 0.0),
                                 resolution=8)["Curve"]
-    one = leg(g, curve=curve, profile_curve=_tube_profile(g), top_radius=p["leg_thickness"],
+    one = leg_style(g, curve=curve, profile_curve=_tube_profile(g), top_radius=p["leg_thickness"],
               bottom_radius=g.mul(p["leg_thickness"], 0.7), fill_caps=True, part=FOOT)["Mesh"]
     return radial(g, geometry=one, count=p["leg_count"], radius=0.0,
                   start_angle=0.785398)["Geometry"]

@@ -178,7 +178,7 @@ def test_rail_has_constant_radius_and_labels_its_part(blender):
 
 
 def test_leg_eases_from_top_to_bottom_radius(blender):
-    mesh = _evaluate(lambda g: nodes.leg(g, curve=_vertical_line(g), profile_curve=_round_profile(g),
+    mesh = _evaluate(lambda g: nodes.leg_style(g, curve=_vertical_line(g), profile_curve=_round_profile(g),
                                          top_radius=0.2, bottom_radius=0.1)["Mesh"])
     bottom, middle, top = _radii_by_height(mesh)  # path runs up: its start is at z = 0
     assert bottom == pytest.approx(0.2, rel=3e-3) and top == pytest.approx(0.1, rel=3e-3)

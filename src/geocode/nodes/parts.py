@@ -14,9 +14,14 @@ from geocode.nodes.curves import fixed_bottom, fixed_top, quadratic_cartesian, q
 from geocode.nodes.graph import Graph
 from geocode.nodes.group import node_group
 from geocode.nodes.profiles import rectangle_fillet
-from geocode.nodes.styles import aligned_bevel_xy, middle_expand_contract, rail, seat_frame
-from geocode.nodes.styles import cushion as cushion_style
-from geocode.nodes.styles import leg as leg_style
+from geocode.nodes.styles import (
+    aligned_bevel_xy,
+    cushion_style,
+    leg_style,
+    middle_expand_contract,
+    rail,
+    seat_frame,
+)
 from geocode.nodes.utils import align_curve_tilt_to_axis
 
 # fillet points per profile corner: small parts need few, the seat is seen up close
@@ -92,7 +97,7 @@ def seat(g: Graph) -> None:
 
 
 @node_group("MeshCushion")
-def cushion(g: Graph) -> None:
+def cushion_mesh(g: Graph) -> None:
     """A pillow on a seat: the seat's outline (`Width`, `Depth`, `Roundness`) swept up from
     `Bottom` by `Thickness` with StyleCushion (`Fill`: dome to full pillow)."""
     width = g.input("Width", "float", default=0.5, min=0.0)
@@ -110,7 +115,7 @@ def cushion(g: Graph) -> None:
 
 
 @node_group("MeshLeg")
-def leg(g: Graph) -> None:
+def leg_mesh(g: Graph) -> None:
     """A leg hanging from `Top` to `Bottom` on a CurveFixedTop (`Curvature` 1: vertical
     under the seat, bending out towards the foot), StyleLeg from `Top Radius` to
     `Bottom Radius`, a square-to-round profile (`Roundness`) with its X on world X."""

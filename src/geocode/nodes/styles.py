@@ -55,7 +55,7 @@ def rail(g: Graph) -> None:
 
 
 @node_group("StyleLeg")
-def leg(g: Graph) -> None:
+def leg_style(g: Graph) -> None:
     """A leg: the scale eases from `Top Radius` at the path's start to `Bottom Radius` at
     its end along a fixed float curve (slow at the top, a flare near the foot)."""
     curve, profile, fill_caps, part = _triplet_inputs(g)
@@ -121,7 +121,7 @@ def seat_frame(g: Graph) -> None:
 
 
 @node_group("StyleCushion")
-def cushion(g: Graph) -> None:
+def cushion_style(g: Graph) -> None:
     """Scale max(sqrt(1 - t^k), 0.35), k = 2 + 8 Fill, along a path that rises from the
     cushion's bottom: a flat base whose sides puff in towards the top; `Fill` 0 gives a
     dome, 1 a full pillow with rounded top edges."""
