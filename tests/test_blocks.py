@@ -116,10 +116,9 @@ def test_arc_lies_on_its_circle(blender):
 def _body_outline(g):
     """A bulging outline in the XZ plane: x = 0.5 + 0.3 sin(pi z / 2), z in [0, 2]."""
     path = _vertical_line(g, 2.0, 33)
-    z = g.separate(g.position())["Z"]
-    x = g.add(0.5, g.mul(0.3, g.math("SINE", g.mul(z, math.pi / 2))))
+    x = 0.5 + 0.3 * g.sin(g.position().z * math.pi / 2)
     return g.node("GeometryNodeSetPosition", {"Geometry": path,
-                                              "Offset": g.combine(x, 0, 0)}).out
+                                              "Offset": g.vec(x, 0, 0)}).out
 
 
 def test_handle_attaches_on_the_curve_and_clears_it(blender):

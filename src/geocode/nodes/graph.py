@@ -602,32 +602,6 @@ class Graph:
         lowest = self.bounding_box(geometry)["Min"].z
         return self.transform(geometry, translation=self.vec(0.0, 0.0, -lowest))
 
-    # -- prefix spellings, kept until vase and chair are rewritten; use the operators -------
-
-    def add(self, a: Value, b: Value) -> Socket:
-        return self.math("ADD", a, b)
-
-    def sub(self, a: Value, b: Value) -> Socket:
-        return self.math("SUBTRACT", a, b)
-
-    def mul(self, a: Value, b: Value) -> Socket:
-        return self.math("MULTIPLY", a, b)
-
-    def div(self, a: Value, b: Value) -> Socket:
-        return self.math("DIVIDE", a, b)
-
-    def minimum(self, a: Value, b: Value) -> Socket:
-        return self.min(a, b)
-
-    def maximum(self, a: Value, b: Value) -> Socket:
-        return self.max(a, b)
-
-    def combine(self, x: Value = 0.0, y: Value = 0.0, z: Value = 0.0) -> Socket:
-        return self.vec(x, y, z)
-
-    def separate(self, vector: Value) -> Node:
-        return self.node("ShaderNodeSeparateXYZ", {"Vector": vector})
-
     # -- layout -----------------------------------------------------------------------------
 
     def arrange(self) -> None:
