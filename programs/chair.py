@@ -168,7 +168,8 @@ class _Chair:
             g, start=bottom, end=top, offset=bow, width=p["frame_width"],
             depth=p["frame_depth"], roundness=p["frame_roundness"], bevel=p["rail_bevel"],
             part=BACK_FRAME)
-        self.frame_curve, self.frame = frame["Curve"], frame["Mesh"]
+        self.frame_curve = g.named("frame path", frame["Curve"])
+        self.frame = frame["Mesh"]
 
     def frame_sweep(self, width, depth, roundness, part):
         """The frame's path moved to x = 0 and swept with another profile (panels, rails)."""

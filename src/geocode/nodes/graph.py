@@ -306,7 +306,10 @@ class Graph:
     def _export(self, level: _Level, inner) -> bpy.types.NodeSocket:
         key = inner.as_pointer()
         if key not in level.exported:
-            item = level.tree.interface.new_socket(self._crossing_name(inner), in_out="OUTPUT",
+            # a part's geometry is called after the part unless it was given a name
+            name = self._names.get(key) or (level.node.label if inner.type == "GEOMETRY"
+                                            else self._crossing_name(inner))
+            item = level.tree.interface.new_socket(name, in_out="OUTPUT",
                                                    socket_type=_INTERFACE_TYPES[inner.type])
             level.tree.links.new(inner, find_socket(
                 self._io_node(level, "NodeGroupOutput").inputs, item.identifier, level.tree))
