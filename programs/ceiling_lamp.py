@@ -102,7 +102,8 @@ def _corner_reach(roundness):
 
 
 def _canopy(g: Graph, p: dict):
-    """Widest on the ceiling, narrowing by CANOPY_BULGE towards its bottom."""
+    """Half-width canopy_radius (1 - CANOPY_BULGE (1 - t)^2) at t = (z + canopy_height) /
+    canopy_height, from z = -canopy_height up to the ceiling."""
     path = _vertical_path(g, 0.0, -p["canopy_height"], 0.0, 6)
     below = 1.0 - g.spline_factor()
     scale = p["canopy_radius"] * (1.0 - CANOPY_BULGE * below * below)
@@ -110,33 +111,43 @@ def _canopy(g: Graph, p: dict):
                  scale=scale, fill_caps=True, part=CANOPY)["Mesh"]
 
 
-class _Arm:
-    """One arm on +X (the radial copies make the others): its ends and its shade's room."""
-
-    def __init__(self, g: Graph, p: dict, hub_z):
-        self.reach = p["hub_radius"] + p["arm_length"]
-        self.end_z = hub_z + p["arm_rise"]
-        # the middle control point rises over the end: the arm arrives level or falling
-        lift = p["arm_rise"] * 0.5 + p["arm_curvature"] * p["arm_length"] * 0.4
-        self.mesh = quadratic_cartesian_mesh(
-            g, start=g.vec(p["hub_radius"] * 0.5, 0.0, hub_z),
-            end=g.vec(self.reach, 0.0, self.end_z), offset=g.vec(0.0, 0.0, lift),
-            radius=p["arm_thickness"], roundness=1.0, axis=(0.0, 1.0, 0.0), part=ARMS)["Mesh"]
-        self.socket_bottom = self.end_z - SOCKET_LENGTH
-        self.shade_top = self.end_z - SOCKET_LENGTH / 2
-        # room for half a shade: half the gap to the next arm's shade, and the arm's length
-        # (clear of the hub); a square outline reaches out by its corner
-        between = self.reach * g.sin(math.pi / p["arm_count"])
-        room = g.min(between, p["arm_length"]) * SHADE_GAP / _corner_reach(p["shade_roundness"])
-        self.rim = g.min(p["shade_size"], room)
+def _upright(g: Graph, top, bottom, radius, part):
+    """A vertical cylinder of `radius` on the axis from z=top down to z=bottom."""
+    return straight_frame(g, start=g.vec(0.0, 0.0, top), end=g.vec(0.0, 0.0, bottom),
+                          width=radius * 2.0, depth=radius * 2.0, roundness=1.0, part=part)
 
 
-def _socket(g: Graph, p: dict, arm: _Arm):
-    top = g.vec(arm.reach, 0.0, arm.end_z + p["arm_thickness"] * 1.5)
-    bottom = g.vec(arm.reach, 0.0, arm.socket_bottom)
+def _arm(g: Graph, p: dict, hub_z):
+    """The arm on +X (the radial copies make the others): a quadratic curve from
+    (hub_radius / 2, 0, hub_z) inside the hub to its end (hub_radius + arm_length, 0,
+    hub_z + arm_rise), the middle control point arm_curvature 0.4 arm_length above the
+    end's height: the arm arrives level or falling, never up through its shade."""
+    end = g.named("arm_end", g.vec(p["hub_radius"] + p["arm_length"], 0.0,
+                                   hub_z + p["arm_rise"]))
+    lift = p["arm_rise"] * 0.5 + p["arm_curvature"] * p["arm_length"] * 0.4
+    mesh = quadratic_cartesian_mesh(
+        g, start=g.vec(p["hub_radius"] * 0.5, 0.0, hub_z), end=end,
+        offset=g.vec(0.0, 0.0, lift), radius=p["arm_thickness"], roundness=1.0,
+        axis=(0.0, 1.0, 0.0), part=ARMS)["Mesh"]
+    return mesh, end
+
+
+def _socket(g: Graph, p: dict, end):
+    """A cylinder SOCKET_WIDTH arm radii wide around the arm's end, from 1.5 arm radii above
+    it down to SOCKET_LENGTH below it."""
     width = p["arm_thickness"] * (2 * SOCKET_WIDTH)
-    return straight_frame(g, start=top, end=bottom, width=width, depth=width, roundness=1.0,
-                          part=SOCKETS)["Mesh"]
+    return straight_frame(g, start=end + g.vec(0.0, 0.0, p["arm_thickness"] * 1.5),
+                          end=end - (0.0, 0.0, SOCKET_LENGTH), width=width, depth=width,
+                          roundness=1.0, part=SOCKETS)["Mesh"]
+
+
+def _rim(g: Graph, p: dict, end):
+    """The shade's rim half-width: shade_size, shrunk to SHADE_GAP of the room it has (half
+    the distance to the next arm's end, reach sin(pi / arm_count), and the arm's length,
+    clear of the hub), divided by how far the outline's corner reaches."""
+    between = end.x * g.sin(math.pi / p["arm_count"])
+    room = g.min(between, p["arm_length"]) * SHADE_GAP / _corner_reach(p["shade_roundness"])
+    return g.named("rim", g.min(p["shade_size"], room))
 
 
 def _shade_profile(g: Graph, p: dict):
@@ -150,19 +161,22 @@ def _shade_profile(g: Graph, p: dict):
     return g.index_switch(p["shade_shape"], [cone, bell, 1.0, globe], data_type="FLOAT")
 
 
-def _shade(g: Graph, p: dict, arm: _Arm):
-    path = _vertical_path(g, arm.reach, arm.shade_top - p["shade_height"], arm.shade_top,
-                          SHADE_RINGS)
+def _shade(g: Graph, p: dict, end, rim):
+    """A shell hanging from SOCKET_LENGTH / 2 under the arm's end (the socket pierces its
+    closed top) down by shade_height to its open rim, half-width rim x the profile."""
+    top = end.z - SOCKET_LENGTH / 2
+    path = _vertical_path(g, end.x, top - p["shade_height"], top, SHADE_RINGS)
     return shell(g, curve=path, profile_curve=_outline(g, p["shade_roundness"], 3),
-                 scale=arm.rim * _shade_profile(g, p), thickness=p["shade_thickness"],
+                 scale=rim * _shade_profile(g, p), thickness=p["shade_thickness"],
                  part=SHADES)["Mesh"]
 
 
-def _bulb(g: Graph, p: dict, arm: _Arm):
-    """A round bulb whose top reaches into the socket."""
-    radius = g.min(p["bulb_size"], arm.rim * BULB_FIT)
-    top = arm.socket_bottom + radius * 0.2
-    path = _vertical_path(g, arm.reach, top - radius * 1.8, top, 8)
+def _bulb(g: Graph, p: dict, end, rim):
+    """A round bulb of radius min(bulb_size, BULB_FIT rim) whose top reaches 0.2 radius into
+    the socket's bottom."""
+    radius = g.min(p["bulb_size"], rim * BULB_FIT)
+    top = end.z - SOCKET_LENGTH + radius * 0.2
+    path = _vertical_path(g, end.x, top - radius * 1.8, top, 8)
     # a sphere's outline over 0.9 of its height, flat at both ends
     centred = g.spline_factor() * 1.8 - 0.9
     return sweep(g, curve=path, profile_curve=_outline(g, 1.0, 2),
@@ -170,21 +184,29 @@ def _bulb(g: Graph, p: dict, arm: _Arm):
                  part=BULBS)["Mesh"]
 
 
-def _upright(g: Graph, top, bottom, radius, part):
-    """A vertical cylinder on the axis from z=top down to z=bottom."""
-    return straight_frame(g, start=g.vec(0.0, 0.0, top), end=g.vec(0.0, 0.0, bottom),
-                          width=radius * 2.0, depth=radius * 2.0, roundness=1.0, part=part)
-
-
 def build(g: Graph) -> None:
-    p = _parameters(g)
-    # the rod starts inside the canopy; the hub sits where the rod is sampled
-    rod = _upright(g, p["canopy_height"] * -0.5, -p["canopy_height"] - p["rod_length"],
-                   p["rod_thickness"], ROD)
-    hub_z = sample_curve(g, curve=rod["Curve"], factor=p["arm_attach"])["Position"].z
-    half = p["hub_height"] * 0.5
-    hub = _upright(g, hub_z + half, hub_z - half, p["hub_radius"], HUB)["Mesh"]
-    arm = _Arm(g, p, hub_z)
-    one = g.join([arm.mesh, _socket(g, p, arm), _shade(g, p, arm), _bulb(g, p, arm)])
-    arms = radial(g, geometry=one, count=p["arm_count"], radius=0.0)["Geometry"]
-    g.output("Geometry", "geometry", g.join([_canopy(g, p), rod["Mesh"], hub, arms]))
+    with g.frame("Parameters"):
+        p = _parameters(g)
+    with g.part("Canopy"):
+        canopy = _canopy(g, p)
+    with g.part("Rod"):  # from inside the canopy down by rod_length below it
+        rod = _upright(g, p["canopy_height"] * -0.5, -p["canopy_height"] - p["rod_length"],
+                       p["rod_thickness"], ROD)
+    with g.part("Hub"):  # where the rod is sampled at arm_attach of its length
+        at = sample_curve(g, curve=rod["Curve"], factor=p["arm_attach"])["Position"]
+        hub_z = g.named("hub_z", at.z)
+        half = p["hub_height"] * 0.5
+        hub = _upright(g, hub_z + half, hub_z - half, p["hub_radius"], HUB)["Mesh"]
+    with g.part("Arm"):
+        arm, end = _arm(g, p, hub_z)
+    with g.part("Socket"):
+        socket = _socket(g, p, end)
+    with g.part("Shade"):
+        rim = _rim(g, p, end)
+        shade = _shade(g, p, end, rim)
+    with g.part("Bulb"):
+        bulb = _bulb(g, p, end, rim)
+    with g.frame("Assembly"):
+        one = g.join([arm, socket, shade, bulb])
+        arms = radial(g, geometry=one, count=p["arm_count"], radius=0.0)["Geometry"]
+        g.output("Geometry", "geometry", g.join([canopy, rod["Mesh"], hub, arms]))
