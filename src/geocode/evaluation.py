@@ -172,11 +172,12 @@ def hangs(cfg: DictConfig, domain: str) -> bool:
 
 def metrics_step(cfg: DictConfig, domain: str, predictions: Path, out: Path) -> str:
     """Chamfer distance of every rebuilt prediction to its ground truth; the drop test on the
-    ground truth and on the clean predictions; one row per prediction (and per GT shape)."""
+    ground truth and on the clean predictions (none for a program that hangs); one row per
+    prediction (and per GT shape)."""
     from geocode.metrics import chamfer_meshes
     from geocode.stability import drop_test
 
-    hanging = hangs(cfg, domain)  # e.g. a ceiling lamp: no drop test, `stable` stays NaN
+    hanging = hangs(cfg, domain)  # a ceiling lamp: `stable` stays NaN
     table = pd.read_parquet(predictions)
     rebuilt = Path(predictions).parent / "rebuilt"
     variant = Path(predictions).parent.parent.name          # <runs>/<domain>/<variant>/eval/

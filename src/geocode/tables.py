@@ -136,7 +136,7 @@ def stability(m: pd.DataFrame, trained: list[str]) -> dict:
             g = _trained(g, trained)
         if modality in labels and len(g):
             out[(domain, labels[modality])] = 100.0 * float(g.stable.astype(float).mean())
-    for domain in sorted(set(m.domain) - {domain for domain, _ in out}):  # hangs: no drop test
+    for domain in sorted(set(m.domain) - {domain for domain, _ in out}):  # they hang: no drop test
         out.update({(domain, label): NOT_APPLICABLE for label in labels.values()})
     return out
 

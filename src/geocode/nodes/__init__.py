@@ -35,8 +35,7 @@ BLOCKS: dict[str, NodeGroup] = {
 __all__ = [
     "BLOCKS", "PART_ATTRIBUTE", "Evaluator", "Graph", "Node", "NodeGroup", "Socket", "node_group",
     "rectangle_fillet", "quadratic_polar", "quadratic_cartesian", "bezier_segment", "arc",
-    "handle", "sweep", "rail", "shell", "leg_style", "middle_expand_contract", "solidify",
-    "sample_curve",
+    "handle", "sweep", "rail", "leg_style", "middle_expand_contract", "solidify", "sample_curve",
     "sample_curve_array", "sample_points", "radial", "mirror", "align_curve_to_start_point",
-    "align_curve_tilt_to_axis",
+    "align_curve_tilt_to_axis", "shell",
 ]
