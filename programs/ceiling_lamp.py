@@ -49,6 +49,9 @@ BULB_FIT = 0.6          # a bulb's radius stays below this share of its shade's 
 GLOBE_RIM = 0.25        # a globe's bottom opening, per unit of its width
 SHADE_RINGS = 10        # path points along a shade's height
 CANOPY_BULGE = 0.4      # the canopy narrows by this share from the ceiling to its bottom
+# the arch of an arm: its middle control point rises up to this share of the arm's length
+# above the arm's end (kept below the ceiling for every combination of the ranges)
+ARM_ARCH = 0.2
 
 
 def _parameters(g: Graph) -> dict:
@@ -120,11 +123,11 @@ def _upright(g: Graph, top, bottom, radius, part):
 def _arm(g: Graph, p: dict, hub_z):
     """The arm on +X (the radial copies make the others): a quadratic curve from
     (hub_radius / 2, 0, hub_z) inside the hub to its end (hub_radius + arm_length, 0,
-    hub_z + arm_rise), the middle control point arm_curvature 0.4 arm_length above the
+    hub_z + arm_rise), the middle control point arm_curvature ARM_ARCH arm_length above the
     end's height: the arm arrives level or falling, never up through its shade."""
     end = g.named("arm_end", g.vec(p["hub_radius"] + p["arm_length"], 0.0,
                                    hub_z + p["arm_rise"]))
-    lift = p["arm_rise"] * 0.5 + p["arm_curvature"] * p["arm_length"] * 0.4
+    lift = p["arm_rise"] * 0.5 + p["arm_curvature"] * p["arm_length"] * ARM_ARCH
     mesh = quadratic_cartesian_mesh(
         g, start=g.vec(p["hub_radius"] * 0.5, 0.0, hub_z), end=end,
         offset=g.vec(0.0, 0.0, lift), radius=p["arm_thickness"], roundness=1.0,
