@@ -23,7 +23,7 @@ from types import ModuleType
 import numpy as np
 import trimesh
 
-from geocode.config import PROGRAMS_ENV, programs_dir  # noqa: F401 (PROGRAMS_ENV re-exported)
+from geocode.config import PROGRAMS_ENV, programs_dir, recipe_path, registry  # noqa: F401 (PROGRAMS_ENV, registry re-exported)
 from geocode.expr import Expr
 from geocode.recipe import Parameter
 
@@ -32,13 +32,6 @@ _KINDS = {"NodeSocketBool": "bool", "NodeSocketInt": "int", "NodeSocketFloat": "
           "NodeSocketVector": "vector"}
 _UNBOUNDED = 1e30  # Blender's default socket range is +-3.4e38: treat as "not given"
 _LOADED: dict[str, Program] = {}  # by program file: one build per process
-
-
-def registry() -> list[str]:
-    """Domains with both a program `<domain>.py` and a recipe `<domain>.yaml`, sorted."""
-    folder = programs_dir()
-    return sorted(p.stem for p in folder.glob("*.py")
-                  if not p.stem.startswith("_") and p.with_suffix(".yaml").exists())
 
 
 def _import_program(domain: str) -> ModuleType:
@@ -147,7 +140,7 @@ class Program:
         """The recipe `<programs>/<domain>.yaml`, checked against this program's parameters."""
         from geocode.recipe import Recipe
 
-        return Recipe.load(programs_dir() / f"{self.domain}.yaml", self.parameters, self.visibility())
+        return Recipe.load(recipe_path(self.domain), self.parameters, self.visibility())
 
     def manifest(self) -> dict:
         rules = self.visibility()
