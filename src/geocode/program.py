@@ -15,7 +15,6 @@ import math
 import os
 import statistics
 import tempfile
-import time
 from collections.abc import Mapping
 from pathlib import Path
 from types import ModuleType
@@ -26,6 +25,7 @@ import trimesh
 from geocode.config import PROGRAMS_ENV, programs_dir, recipe_path, registry  # noqa: F401 (PROGRAMS_ENV, registry re-exported)
 from geocode.expr import Expr
 from geocode.recipe import Parameter
+from geocode.timing import Stopwatch
 
 AXES = ("x", "y", "z")
 _KINDS = {"NodeSocketBool": "bool", "NodeSocketInt": "int", "NodeSocketFloat": "float",
@@ -245,12 +245,12 @@ def bench(domain: str, n: int = 200, seed: int = 0) -> dict:
     samples = [program.random_values(rng) for _ in range(n)]
     meshes = []
     with tempfile.TemporaryDirectory() as tmp:
-        start = time.perf_counter()
-        for i, values in enumerate(samples):
-            mesh = program.evaluate(values)
-            write_obj(Path(tmp) / f"{i:06d}.obj", mesh)
-            meshes.append(mesh)
-        elapsed = time.perf_counter() - start
+        with Stopwatch() as clock:
+            for i, values in enumerate(samples):
+                mesh = program.evaluate(values)
+                write_obj(Path(tmp) / f"{i:06d}.obj", mesh)
+                meshes.append(mesh)
+    elapsed = clock.seconds
     loose = sum(loose_parts(mesh) > 0 for mesh in meshes)
     nonfinite = sum(not np.isfinite(mesh.vertices).all() for mesh in meshes)
     return {"n": n, "shapes_per_s": round(n / elapsed, 2),

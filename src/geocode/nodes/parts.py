@@ -1,5 +1,5 @@
 """Meshes: ready-made triplets (path curve + RectangleFillet profile + style -> mesh), the
-parts that furniture programs are assembled from (SPEC §1 catalogue, "meshes").
+parts that furniture programs are assembled from (docs/paper-numbers.md#building-blocks, "meshes").
 
 Profiles are given in absolute sizes (`Width` along the profile's X, `Depth` along its Y),
 so styles scale by 1 at rest. Every block labels its faces with `Part` and, where other
@@ -47,7 +47,7 @@ def _profile(g: Graph, width, depth, roundness, resolution=THIN_RESOLUTION):
 
 
 def _frame_inputs(g: Graph):
-    """Profile and style inputs shared by the frame meshes."""
+    """Profile and style inputs common to the frame meshes."""
     width = g.input("Width", "float", default=0.04, min=0.0)
     depth = g.input("Depth", "float", default=0.04, min=0.0)
     roundness = g.input("Roundness", "float", default=0.0, min=0.0, max=1.0)
