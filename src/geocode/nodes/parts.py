@@ -13,7 +13,7 @@ import math
 from geocode.nodes.curves import fixed_bottom, fixed_top, quadratic_cartesian, quadratic_polar
 from geocode.nodes.graph import Graph
 from geocode.nodes.group import node_group
-from geocode.nodes.profiles import rectangle_fillet
+from geocode.nodes.profiles import corner_radius, rectangle_fillet
 from geocode.nodes.styles import aligned_bevel_xy, middle_expand_contract, rail, seat_frame
 from geocode.nodes.styles import cushion as cushion_style
 from geocode.nodes.styles import leg as leg_style
@@ -24,8 +24,6 @@ THIN_RESOLUTION = 2
 SEAT_RESOLUTION = 6
 # the rectangle's corner moves in by r (1 - 1/sqrt 2) when rounded with radius r
 _CORNER_INSET = 1.0 - 1.0 / math.sqrt(2.0)
-# the fillet radius of RectangleFillet never leaves this range (see profiles.py)
-_ROUNDNESS_RANGE = (1e-3, 0.995)
 
 
 def _line(g: Graph, start, end, points: int):
@@ -84,9 +82,7 @@ def seat(g: Graph) -> None:
     mesh = seat_frame(g, curve=path, profile_curve=profile, bevel=bevel, fill_caps=True,
                       part=part)["Mesh"]
     g.output("Mesh", "geometry", mesh)
-    clamped = g.node("ShaderNodeClamp", {"Value": roundness, "Min": _ROUNDNESS_RANGE[0],
-                                         "Max": _ROUNDNESS_RANGE[1]}).out
-    inset = g.mul(g.mul(clamped, g.mul(g.minimum(width, depth), 0.5)), _CORNER_INSET)
+    inset = g.mul(corner_radius(g, roundness, width, depth), _CORNER_INSET)
     g.output("Corner", "vector", g.combine(g.sub(g.mul(width, 0.5), inset),
                                            g.sub(g.mul(depth, 0.5), inset), 0.0))
 
