@@ -127,33 +127,18 @@ class _Plan:
 
 
 def _plan(recipe: Recipe, split: str, count: int, seed: int, domain: str) -> _Plan:
-    forced, forced_class, group_key = [], [], []
-    for j, parameter in enumerate(recipe.parameters):
-        for c in range(parameter.n_values):
-            entropy = [
-                seed,
-                key_word(domain),
-                key_word(split),
-                key_word(parameter.name),
-                c,
-            ]
-            key = np.random.SeedSequence(entropy).generate_state(1, np.uint64)[0]
-            forced.append(j)
-            forced_class.append(c)
-            group_key.append(key)
-    name_keys = np.array(
-        [[key_word(seed, "draw", p.name, k) for k in range(2)] for p in recipe.parameters],
-        dtype=np.uint64,
-    )
-    groups = len(forced)
+    groups = [(j, c) for j, p in enumerate(recipe.parameters) for c in range(p.n_values)]
+    forced, forced_class = np.array(groups, dtype=np.int64).reshape(-1, 2).T
+    group_key = [key_word(seed, domain, split, recipe.parameters[j].name, c) for j, c in groups]
+    name_keys = [[key_word(seed, "draw", p.name, k) for k in range(2)] for p in recipe.parameters]
     return _Plan(
         split=split,
         domain=domain,
-        forced=np.repeat(np.array(forced, dtype=np.int64), count),
-        forced_class=np.repeat(np.array(forced_class, dtype=np.int64), count),
-        index=np.tile(np.arange(count, dtype=np.int64), groups),
+        forced=np.repeat(forced, count),
+        forced_class=np.repeat(forced_class, count),
+        index=np.tile(np.arange(count, dtype=np.int64), len(groups)),
         group_key=np.repeat(np.array(group_key, dtype=np.uint64), count),
-        name_keys=name_keys,
+        name_keys=np.array(name_keys, dtype=np.uint64),
     )
 
 
