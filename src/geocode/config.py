@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import re
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -67,9 +68,11 @@ def compose(overrides: Sequence[str] = ()) -> DictConfig:
             cfg = hydra_compose("config", overrides=list(overrides))
     except HydraException as exc:
         first = str(exc).strip().splitlines()[0]
-        if "'domain/" in first:
-            raise ConfigError(f"{first}: known domains are {', '.join(registry()) or 'none'} (a "
-                              f"domain is a program and its recipe in {programs_dir()})") from None
+        if unknown := re.search(r"Could not find 'domain/([^']*)'", first):
+            raise ConfigError(
+                f"domain={unknown[1]}: no such domain; use one of {', '.join(registry()) or 'none'}, "
+                f"or add programs/{unknown[1]}.py with its recipe programs/{unknown[1]}.yaml "
+                f"(in {programs_dir()})") from None
         raise ConfigError(f"conf/: {first} (see `geocode config --help` for the groups and keys)") from None
     validate(cfg)
     return cfg
