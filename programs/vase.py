@@ -62,7 +62,7 @@ def vase_radius(g: Graph) -> None:
 
 
 class _Body:
-    """The body's shared quantities, so that every attached part follows edits."""
+    """The quantities every part of the body uses, so that every attached part follows edits."""
 
     def __init__(self, g: Graph, p: dict):
         self.g, self.p = g, p
