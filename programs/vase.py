@@ -62,7 +62,7 @@ def vase_radius(g: Graph) -> None:
 
 
 class _Body:
-    """The quantities every part of the body uses, so that every attached part follows edits."""
+    """Quantities of the body that its parts are placed from, so that they follow edits."""
 
     def __init__(self, g: Graph, p: dict):
         self.g, self.p = g, p
