@@ -145,8 +145,8 @@ def _where(loc: tuple, data) -> str:
     parts, node = [], data
     for key in loc:
         node = _child(node, key)
-        name = node.get("name") if isinstance(key, int) and isinstance(node, dict) else None
         if isinstance(key, int):
+            name = node.get("name") if isinstance(node, dict) else None
             parts.append(f".{name}" if isinstance(name, str) else f"[{key}]")
         else:
             parts.append(f".{key}")
