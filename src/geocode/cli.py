@@ -77,6 +77,28 @@ def parser() -> argparse.ArgumentParser:
     c.add_argument("--seed", type=int, default=0)
     c.set_defaults(run=cmd_gallery)
 
+    c = sub.add_parser("mix", help="shape a with some parameters taken from shape b")
+    c.add_argument("domain")
+    c.add_argument("a", type=Path, help="YAML of parameter values (e.g. a dataset shape)")
+    c.add_argument("b", type=Path)
+    c.add_argument("--take", required=True, nargs="+", metavar="NAME",
+                   help="parameters to take from b: names, or the first word of a group (handle)")
+    c.add_argument("-o", "--output", required=True, type=Path, help="the OBJ (its YAML beside it)")
+    c.set_defaults(run=cmd_mix)
+
+    c = sub.add_parser("interpolate", help="a sequence of shapes from a to b, and a strip PNG")
+    c.add_argument("domain")
+    c.add_argument("a", type=Path)
+    c.add_argument("b", type=Path)
+    c.add_argument("--steps", type=int, default=6)
+    c.add_argument("-o", "--output", required=True, type=Path, help="folder for step-NN.obj|yaml, strip.png")
+    c.set_defaults(run=cmd_interpolate)
+
+    addon = sub.add_parser("addon", help="the building blocks as a Blender extension").add_subparsers(required=True, metavar="action")
+    c = addon.add_parser("build", help="write the extension zip (install it in Blender from disk)")
+    c.add_argument("-o", "--output", type=Path, default=Path("geocode_nodes.zip"))
+    c.set_defaults(run=cmd_addon_build)
+
     c = sub.add_parser("bench", help="measure a stage's throughput")
     c.add_argument("stage", choices=["program", "dataset", "train", "epoch", "eval"])
     c.add_argument("domain", nargs="?", default="vase")
@@ -186,6 +208,39 @@ def parse_values(tokens: list[str]) -> dict[str, float]:
         if not sep or not name:
             raise ValueError(f"{token!r}: write a parameter value as name=number, e.g. body_height=1.2")
     return values
+
+
+def cmd_mix(args):
+    from geocode import editing
+    from geocode.program import Program
+
+    program = Program.load(args.domain)
+    a, b = (editing.read_values(path, program) for path in (args.a, args.b))
+    take = editing.select(program, args.take)
+    editing.write_shape(args.output.with_suffix(""), program, editing.mix(a, b, take))
+    return f"wrote {args.output} ({len(take)} parameters from {args.b.name}: {', '.join(take)})"
+
+
+def cmd_interpolate(args):
+    from geocode import editing
+    from geocode.blender.gallery import render_strip
+    from geocode.program import Program
+
+    program = Program.load(args.domain)
+    a, b = (editing.read_values(path, program) for path in (args.a, args.b))
+    sequence = editing.interpolate(program, a, b, args.steps)
+    meshes = [editing.write_shape(args.output / f"step-{i:02d}", program, values)
+              for i, values in enumerate(sequence)]
+    render_strip(meshes, args.output / "strip.png")
+    return f"wrote {len(meshes)} shapes and strip.png to {args.output}"
+
+
+def cmd_addon_build(args):
+    from geocode.blender.addon import build_addon
+
+    counts = build_addon(args.output)
+    return f"wrote {args.output}: {sum(counts.values())} blocks (" + ", ".join(
+        f"{category} {n}" for category, n in counts.items()) + ")"
 
 
 def cmd_gallery(args):

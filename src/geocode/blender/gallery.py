@@ -156,6 +156,19 @@ def grid(images: list[Image.Image], captions: list[str], columns: int = 4) -> Im
     return sheet
 
 
+def render_strip(meshes, out_png: str | Path) -> Path:
+    """One row of shaded pictures of `meshes`, in order (an interpolation sequence)."""
+    renderer = shaded_renderer()
+    images = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for i, mesh in enumerate(meshes):
+            renderer.render(mesh, Path(tmp) / f"{i}.png")
+            images.append(on_white(Image.open(Path(tmp) / f"{i}.png")))
+    with meshio.atomic_path(out_png) as tmp_png:
+        grid(images, [str(i) for i in range(len(meshes))], columns=len(meshes)).save(tmp_png, format="PNG")
+    return Path(out_png)
+
+
 def render_gallery(domain: str, out_png: str | Path, n: int = 16, seed: int = 0, program=None) -> Path:
     """A 4-column grid of `n` shapes drawn with `program.random_values(rng)` from `seed`.
     A shape that fails to evaluate gets a caption saying so instead of stopping the grid."""
