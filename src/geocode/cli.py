@@ -24,7 +24,7 @@ def main(argv: list[str] | None = None) -> int:
     # A terminated step (Snakemake stops its jobs with SIGTERM) unwinds like Ctrl-C, so that
     # temporary files are removed and nothing half-written is left behind.
     signal.signal(signal.SIGTERM, lambda *_: sys.exit(128 + signal.SIGTERM))
-    args = parser().parse_args(argv)
+    args = parse(argv)
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s: %(message)s",
                         datefmt="%H:%M:%S", stream=sys.stderr)
     try:
@@ -37,6 +37,17 @@ def main(argv: list[str] | None = None) -> int:
     if result is not None:
         print(json.dumps(result) if getattr(args, "json", False) else format_result(result))
     return 0
+
+
+def parse(argv: list[str] | None) -> argparse.Namespace:
+    """The command line; a step's `key=value` overrides may also stand after its options."""
+    p = parser()
+    args, extra = p.parse_known_args(argv)
+    if extra and hasattr(args, "overrides") and all("=" in e and not e.startswith("-") for e in extra):
+        args.overrides = [*args.overrides, *extra]
+    elif extra:
+        p.error(f"unrecognized arguments: {' '.join(extra)}")
+    return args
 
 
 def format_result(result) -> str:
@@ -77,6 +88,16 @@ def parser() -> argparse.ArgumentParser:
     c.add_argument("--seed", type=int, default=0)
     c.set_defaults(run=cmd_gallery)
 
+    c = sub.add_parser("reconstruct", help="a mesh, point cloud or drawing -> parameters, mesh, preview, .blend")
+    c.add_argument("domain")
+    c.add_argument("input", type=Path, help="mesh (.obj .ply .stl .glb), cloud (.ply .xyz .npy) or drawing (.png .jpg)")
+    c.add_argument("-o", "--output", required=True, type=Path, help="folder for <input>.yaml|obj|png|blend")
+    c.add_argument("--checkpoint", type=Path, help="default: the domain's joint model of the run (paths.runs)")
+    c.add_argument("--refine", type=int, help="program evaluations of the fit (default eval.fit_budget for clouds and meshes, 0 for drawings)")
+    c.add_argument("--up", choices=["y", "z"], help="the input's up axis (default z; y for glTF)")
+    c.add_argument("--json", action="store_true")
+    c.set_defaults(run=cmd_reconstruct)
+
     c = sub.add_parser("mix", help="shape a with some parameters taken from shape b")
     c.add_argument("domain")
     c.add_argument("a", type=Path, help="YAML of parameter values (e.g. a dataset shape)")
@@ -100,13 +121,14 @@ def parser() -> argparse.ArgumentParser:
     c.set_defaults(run=cmd_addon_build)
 
     c = sub.add_parser("bench", help="measure a stage's throughput")
-    c.add_argument("stage", choices=["program", "dataset", "train", "epoch", "eval"])
+    c.add_argument("stage", choices=["program", "dataset", "train", "epoch", "eval", "fit"])
     c.add_argument("domain", nargs="?", default="vase")
-    c.add_argument("--n", type=int, default=200)
+    c.add_argument("--n", type=int, help="shapes (program: 200, fit: 20 test shapes)")
     c.add_argument("--clouds", type=int, default=9330, help="epoch: clouds per epoch (paper-scale vase)")
     c.add_argument("--sketches", type=int, default=18660, help="epoch: sketches per epoch")
     c.add_argument("--device", default="auto", help="epoch: auto (a GPU where there is one), cpu or cuda")
     c.add_argument("--json", action="store_true")
+    c.add_argument("overrides", nargs="*", metavar="key=value", help="fit: the run's config (e.g. profile=smoke)")
     c.set_defaults(run=cmd_bench)
 
     step = "pipeline step; takes Hydra overrides key=value"
@@ -210,6 +232,14 @@ def parse_values(tokens: list[str]) -> dict[str, float]:
     return values
 
 
+def cmd_reconstruct(args):
+    from geocode.reconstruct import reconstruct
+
+    cfg = step_config(args, f"domain={args.domain}")
+    return reconstruct(cfg, args.domain, args.input, args.output, checkpoint=args.checkpoint,
+                       refine=args.refine, up=args.up)
+
+
 def cmd_mix(args):
     from geocode import editing
     from geocode.program import Program
@@ -254,7 +284,7 @@ def cmd_bench(args):
     if args.stage == "program":
         from geocode.program import bench
 
-        return bench(args.domain, n=args.n)
+        return bench(args.domain, n=args.n or 200)
     if args.stage == "dataset":
         from geocode.blender.bench import bench_dataset
 
@@ -267,6 +297,11 @@ def cmd_bench(args):
         from geocode.models.bench import bench_epoch
 
         return bench_epoch(args.clouds, args.sketches, device=args.device)
+    if args.stage == "fit":
+        from geocode.config import compose
+        from geocode.fit import bench_fit
+
+        return bench_fit(compose([f"domain={args.domain}", *args.overrides]), args.domain, n=args.n or 20)
     from geocode.evaluation import bench_eval
 
     return bench_eval(args.domain)
@@ -274,10 +309,10 @@ def cmd_bench(args):
 
 # -- pipeline steps -------------------------------------------------------------------------
 
-def step_config(args):
+def step_config(args, *fixed: str):
     from geocode.config import compose
 
-    return compose(args.overrides)
+    return compose([*fixed, *args.overrides])
 
 
 def cmd_config(args):
@@ -375,7 +410,7 @@ def cmd_report(args):
     return report_step(step_config(args), args.metrics, args.output)
 
 
-STEPS = {cmd_report, cmd_sample, cmd_export, cmd_sketch, cmd_points, cmd_train, cmd_config, cmd_simplify,
+STEPS = {cmd_reconstruct, cmd_report, cmd_sample, cmd_export, cmd_sketch, cmd_points, cmd_train, cmd_config, cmd_simplify,
          cmd_predict, cmd_rebuild, cmd_metrics, cmd_tables}
 
 
