@@ -184,7 +184,7 @@ def ranked_prediction(model, recipe, user_input: UserInput, k: int = TOP_CLASSES
         best = model.classes(outputs, modality)[0].tolist()
     start = recipe.values_from_classes(dict(zip(model.parameter_names, best, strict=True)))
     options = {}
-    for j, p in enumerate(recipe.parameters):
+    for p in recipe.parameters:
         logits = outputs[p.name][0]
         if p.kind == "float" or len(logits) != p.n_classes:   # continuous, or regressed
             continue
