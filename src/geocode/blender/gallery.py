@@ -13,7 +13,14 @@ import numpy as np
 from PIL import Image, ImageDraw
 
 from geocode import meshio
-from geocode.blender.scene import Camera, RenderScene, render_still, set_mesh_data
+from geocode.blender.scene import (
+    MARGIN,
+    Camera,
+    RenderScene,
+    camera_location,
+    render_still,
+    set_mesh_data,
+)
 
 log = logging.getLogger(__name__)
 
