@@ -26,7 +26,9 @@ import math
 
 from geocode.nodes import (
     Graph,
+    Repeat,
     handle,
+    loft,
     mirror,
     quadratic_cartesian,
     rail,
@@ -35,9 +37,7 @@ from geocode.nodes import (
     sample_curve_array,
     solidify,
 )
-from geocode.nodes.loft import loft
 from geocode.nodes.parts import leg, seat
-from geocode.nodes.repeat import Repeat
 from geocode.nodes.styles import bezier_segment_style
 
 BODY, TOP, DRAWERS, DOORS, HANDLES, PLINTH, LEGS = range(1, 8)
@@ -103,30 +103,27 @@ class _Cabinet:
 
     def __init__(self, g: Graph, p: dict):
         self.g, self.p = g, p
-        self.bottom = g.index_switch(p["base_style"], [0.0, p["base_height"], p["base_height"]],
-                                     data_type="FLOAT")
-        self.top = g.add(self.bottom, p["height"])
-        self.front = g.mul(p["depth"], -0.5)
-        half = g.mul(p["width"], 0.5)
-        self.right = quadratic_cartesian(
-            g, start=g.combine(half, self.front, self.bottom),
-            end=g.combine(g.mul(half, p["top_width"]), self.front, self.top),
-            offset=g.combine(p["side_curvature"], 0.0, 0.0),
-            resolution=SIDE_RESOLUTION)["Curve"]
+        self.bottom = g.index_switch(p["base_style"], [0.0, p["base_height"], p["base_height"]])
+        self.top = self.bottom + p["height"]
+        self.front = -0.5 * p["depth"]
+        half = 0.5 * p["width"]
+        bottom_corner = g.vec(half, self.front, self.bottom)
+        top_corner = g.vec(half * p["top_width"], self.front, self.top)
+        self.right = quadratic_cartesian(g, start=bottom_corner, end=top_corner,
+                                         offset=g.vec(p["side_curvature"], 0.0, 0.0),
+                                         resolution=SIDE_RESOLUTION)["Curve"]
         self.left = self.mirrored(self.right)
         # the fronts' sides: the body's sides moved in by the frame
-        self.inner_right = g.transform(self.right, translation=g.combine(
-            g.mul(p["frame_width"], -1.0), 0.0, 0.0))
+        self.inner_right = g.transform(self.right, translation=g.vec(-p["frame_width"], 0, 0))
         self.inner_left = self.mirrored(self.inner_right)
-        self.side_length = g.vmath("DISTANCE", g.combine(half, 0.0, self.bottom), g.combine(
-            g.mul(half, p["top_width"]), 0.0, self.top))
+        self.side_length = g.distance(bottom_corner, top_corner)
 
     def mirrored(self, curve):
         return self.g.transform(curve, scale=(-1.0, 1.0, 1.0))
 
     def along(self, distance):
         """A distance along the sides as a share of their length."""
-        return self.g.div(distance, self.side_length)
+        return distance / self.side_length
 
 
 def _body(c: _Cabinet):
@@ -140,102 +137,88 @@ def _body(c: _Cabinet):
 class _Row:
     """One pass of the rows' repeat zone: the row's place, kind and fronts."""
 
-    def __init__(self, c: _Cabinet, zone: Repeat, rows, total_weight, weights, columns):
+    def __init__(self, c: _Cabinet, zone: Repeat, rows, total_weight, choices):
         g, p = c.g, c.p
         self.c, self.g, self.p = c, g, p
-        self.is_door = g.compare("LESS_THAN", zone.iteration, p["door_rows"], data_type="INT")
-        self.columns = g.switch(self.is_door, columns["drawer"], columns["door"],
-                                data_type="INT")
-        weight = g.switch(self.is_door, 1.0, weights["door"], data_type="FLOAT")
-        usable = g.sub(1.0, g.mul(c.along(p["frame_width"]), 2.0))
+        self.is_door = zone.iteration < p["door_rows"]
+        self.columns = g.switch(self.is_door, choices["drawer_columns"],
+                                choices["door_columns"])
+        weight = g.switch(self.is_door, 1.0, choices["door_height"])
+        usable = 1.0 - 2.0 * c.along(p["frame_width"])
         self.start = zone["start"]
-        self.end = g.add(self.start, g.mul(usable, g.div(weight, total_weight)))
-        gap = c.along(g.mul(p["gap"], 0.5))
-        self.low, self.high = g.add(self.start, gap), g.sub(self.end, gap)
+        self.end = self.start + usable * weight / total_weight
+        gap = c.along(0.5 * p["gap"])
+        self.low, self.high = self.start + gap, self.end - gap
         # counted from the top, the open drawer slides out by the travel
-        from_top = g.int_math("SUBTRACT", rows, zone.iteration)
-        is_open = g.boolean("AND", g.compare("EQUAL", from_top, p["open_drawer"],
-                                             data_type="INT"),
-                            g.boolean("NOT", self.is_door))
-        self.travel = g.switch(is_open, 0.0, weights["travel"], data_type="FLOAT")
-        self.label = g.switch(self.is_door, DRAWERS, DOORS, data_type="INT")
+        from_top = rows - zone.iteration
+        is_open = g.compare("EQUAL", from_top, p["open_drawer"]) & ~self.is_door
+        self.travel = g.switch(is_open, 0.0, choices["travel"])
+        self.label = g.switch(self.is_door, DRAWERS, DOORS)
+
+    def _loft(self, low, high, span_start, span_end):
+        return loft(self.g, curve_a=self.c.inner_left, curve_b=self.c.inner_right, start=low,
+                    end=high, span_start=span_start, span_end=span_end,
+                    inset=0.5 * self.p["gap"], rows=FRONT_ROWS)["Mesh"]
 
     def front(self, span_start, span_end):
         """One front: a Loft over the row's share of the inner sides, standing out of the
         body's face, its back sunk into it (or, when open, into the drawer's box)."""
         g, p = self.g, self.p
-        surface = loft(g, curve_a=self.c.inner_left, curve_b=self.c.inner_right,
-                       start=self.low, end=self.high, span_start=span_start,
-                       span_end=span_end, inset=g.mul(p["gap"], 0.5), rows=FRONT_ROWS)["Mesh"]
-        face = g.sub(g.mul(self.travel, -1.0), p["front_thickness"])
-        moved = g.transform(surface, translation=g.combine(0.0, face, 0.0))
-        return solidify(g, mesh=moved, thickness=g.add(p["front_thickness"], SINK))["Mesh"]
+        surface = self._loft(self.low, self.high, span_start, span_end)
+        face = g.transform(surface, translation=g.vec(0, -self.travel - p["front_thickness"], 0))
+        return solidify(g, mesh=face, thickness=p["front_thickness"] + SINK)["Mesh"]
 
     def box(self, span_start, span_end):
         """The open drawer's box, a little smaller than its front, from the front's back
         into the body: it holds the pulled-out drawer."""
-        g, p = self.g, self.p
-        low = g.lerp(self.low, self.high, BOX_MARGIN)
-        high = g.lerp(self.low, self.high, 1.0 - BOX_MARGIN)
-        margin = g.mul(g.sub(span_end, span_start), BOX_MARGIN)
-        surface = loft(g, curve_a=self.c.inner_left, curve_b=self.c.inner_right, start=low,
-                       end=high, span_start=g.add(span_start, margin),
-                       span_end=g.sub(span_end, margin), inset=g.mul(p["gap"], 0.5),
-                       rows=FRONT_ROWS)["Mesh"]
-        moved = g.transform(surface, translation=g.combine(0.0, g.mul(self.travel, -1.0), 0.0))
-        box = solidify(g, mesh=moved, thickness=g.add(self.travel, SINK))["Mesh"]
-        is_open = g.compare("GREATER_THAN", self.travel, 0.0, data_type="FLOAT")
-        return g.switch(is_open, None, box, data_type="GEOMETRY")
+        g = self.g
+        margin = (span_end - span_start) * BOX_MARGIN
+        surface = self._loft(g.lerp(self.low, self.high, BOX_MARGIN),
+                             g.lerp(self.low, self.high, 1.0 - BOX_MARGIN),
+                             span_start + margin, span_end - margin)
+        back = g.transform(surface, translation=g.vec(0, -self.travel, 0))
+        box = solidify(g, mesh=back, thickness=self.travel + SINK)["Mesh"]
+        return g.switch(self.travel > 0.0, None, box)
 
     def fronts(self):
         """The row's fronts, one pass of a nested repeat zone per column."""
         g = self.g
         zone = Repeat(g, self.columns, geometry=None)
-        span_start = g.div(zone.iteration, self.columns)
-        span_end = g.div(g.add(zone.iteration, 1.0), self.columns)
+        span_start = zone.iteration / self.columns
+        span_end = (zone.iteration + 1.0) / self.columns
         cell = g.join([self.front(span_start, span_end), self.box(span_start, span_end)])
         return zone.close(geometry=g.join([zone["geometry"], cell]))["geometry"]
 
-    def handles(self, handle_shapes):
+    def handles(self, handle_shape):
         """A handle on each front: SampleCurveArray on the row's line across its fronts, at
         the handle's height on the fronts' face, gives the fronts' centres."""
         g, p, c = self.g, self.p, self.c
-        height = g.lerp(self.low, self.high,
-                        g.switch(self.is_door, p["handle_height"], 0.5, data_type="FLOAT"))
-        x = g.separate(sample_curve(g, curve=c.inner_right, factor=height)["Position"])
-        face = g.sub(c.front, g.add(self.travel, p["front_thickness"]))
-        line = g.node("GeometryNodeCurvePrimitiveLine", {
-            "Start": g.combine(g.mul(x["X"], -1.0), face, x["Z"]),
-            "End": g.combine(x["X"], face, x["Z"])}).out
-        margin = g.div(0.5, self.columns)
+        height = g.lerp(self.low, self.high, g.switch(self.is_door, p["handle_height"], 0.5))
+        edge = sample_curve(g, curve=c.inner_right, factor=height)["Position"]
+        face = c.front - self.travel - p["front_thickness"]
+        line = g.line(g.vec(-edge.x, face, edge.z), g.vec(edge.x, face, edge.z))
+        margin = 0.5 / self.columns
         centres = sample_curve_array(g, curve=line, count=self.columns, start_margin=margin,
                                      end_margin=margin)["Points"]
-        front_width = g.sub(g.div(g.mul(x["X"], 2.0), self.columns), p["gap"])
-        front_height = g.mul(g.sub(self.high, self.low), c.side_length)
+        front_width = 2.0 * edge.x / self.columns - p["gap"]
+        front_height = (self.high - self.low) * c.side_length
         # doors: the handle moves towards the cabinet's middle, beside the door's inner edge
-        here = g.separate(g.position())["X"]
-        shift = g.mul(g.math("SIGN", here), g.mul(front_width, -0.5 * DOOR_HANDLE_SHIFT))
-        placed = g.node("GeometryNodeSetPosition", {
-            "Geometry": centres, "Offset": g.combine(
-                g.switch(self.is_door, 0.0, shift, data_type="FLOAT"), 0.0, 0.0)}).out
-        length = g.mul(p["handle_length"], g.switch(self.is_door, front_width, front_height,
-                                                    data_type="FLOAT"))
-        shape = g.switch(self.is_door, handle_shapes(length, upright=False),
-                         handle_shapes(length, upright=True), data_type="GEOMETRY")
-        copies = g.node("GeometryNodeInstanceOnPoints", {"Points": placed, "Instance": shape})
-        return g.node("GeometryNodeRealizeInstances", {"Geometry": copies}).out
+        inward = g.math("SIGN", g.position().x) * front_width * (-0.5 * DOOR_HANDLE_SHIFT)
+        placed = g.set_position(centres, offset=g.vec(g.switch(self.is_door, 0.0, inward), 0, 0))
+        length = p["handle_length"] * g.switch(self.is_door, front_width, front_height)
+        shape = g.switch(self.is_door, handle_shape(length, upright=False),
+                         handle_shape(length, upright=True))
+        return g.instance_on_points(placed, shape)
 
 
-def _handle_shapes(c: _Cabinet):
+def _handle_shape(c: _Cabinet):
     """handle(length, upright): the chosen handle at the origin, its foot on the plane y = 0,
     standing out to -y; a bar lies along x (along z when upright)."""
     g, p = c.g, c.p
 
     def bar(length):
         # CurveHandle works in the XZ plane, bulging to +x: built there, then turned
-        attach = g.node("GeometryNodeCurvePrimitiveLine", {
-            "Start": g.combine(0.0, 0.0, g.mul(length, -0.5)),
-            "End": g.combine(0.0, 0.0, g.mul(length, 0.5))}).out
+        attach = g.line(g.vec(0, 0, -0.5 * length), g.vec(0, 0, 0.5 * length))
         curve = handle(g, curve=attach, start=0.0, end=1.0, reach=p["handle_reach"],
                        peak=0.5, inset=SINK, resolution=12)["Curve"]
         profile = rectangle_fillet(g, width=2.0, height=2.0, roundness=p["handle_roundness"],
@@ -244,52 +227,42 @@ def _handle_shapes(c: _Cabinet):
                     fill_caps=True, part=HANDLES)["Mesh"]
 
     def knob():
-        stem = g.node("GeometryNodeResampleCurve", {
-            "Curve": g.node("GeometryNodeCurvePrimitiveLine", {
-                "Start": g.combine(-SINK, 0.0, 0.0),
-                "End": g.combine(p["handle_reach"], 0.0, 0.0)}),
-            "Mode": "Count", "Count": 8}).out
+        stem = g.line(g.vec(-SINK, 0, 0), g.vec(p["handle_reach"], 0, 0), count=8)
         profile = rectangle_fillet(g, width=2.0, height=2.0, roundness=1.0,
                                    resolution=2)["Curve"]
         size = p["knob_size"]
-        return bezier_segment_style(g, curve=stem, profile_curve=profile,
-                                    start=g.mul(size, 0.4), start_handle=g.mul(size, 0.4),
-                                    end_handle=g.mul(size, 1.3), end=g.mul(size, 0.6),
-                                    fill_caps=True, part=HANDLES)["Mesh"]
+        return bezier_segment_style(g, curve=stem, profile_curve=profile, start=0.4 * size,
+                                    start_handle=0.4 * size, end_handle=1.3 * size,
+                                    end=0.6 * size, fill_caps=True, part=HANDLES)["Mesh"]
 
-    def shapes(length, upright):
-        local = g.index_switch(p["handle_style"], [None, bar(length), knob()],
-                               data_type="GEOMETRY")
+    def shape(length, upright):
+        local = g.index_switch(p["handle_style"], [None, bar(length), knob()])
         # local +x (out of the front) -> world -y; local z (along the bar) -> world z or x
         if upright:
             return g.transform(local, rotation=(0.0, 0.0, -math.pi / 2))
         along_x = g.transform(local, rotation=(0.0, math.pi / 2, 0.0))
         return g.transform(along_x, rotation=(-math.pi / 2, 0.0, 0.0))
 
-    return shapes
+    return shape
 
 
 def _fronts(c: _Cabinet):
     """Rows from the bottom (doors first), one pass of a repeat zone each: a row's share of
     the sides starts where the previous one ended."""
     g, p = c.g, c.p
-    has_drawers = g.compare("GREATER_THAN", p["drawer_rows"], 0, data_type="INT")
-    has_doors = g.compare("GREATER_THAN", p["door_rows"], 0, data_type="INT")
-    opened = g.compare("GREATER_THAN", p["open_drawer"], 0, data_type="INT")
-    travel = g.switch(has_drawers, 0.0, g.switch(opened, 0.0, g.mul(p["drawer_open"],
-                                                                    p["depth"]),
-                                                 data_type="FLOAT"), data_type="FLOAT")
-    weights = {"door": g.switch(has_doors, 1.0, p["door_height"], data_type="FLOAT"),
-               "travel": travel}
-    columns = {"drawer": g.switch(has_drawers, 1, p["drawer_columns"], data_type="INT"),
-               "door": g.switch(has_doors, 1, p["door_columns"], data_type="INT")}
-    rows = g.int_math("ADD", p["drawer_rows"], p["door_rows"])
-    total = g.maximum(g.add(p["drawer_rows"], g.mul(p["door_rows"], weights["door"])), 1.0)
-    shapes = _handle_shapes(c)
+    has_drawers, has_doors = p["drawer_rows"] > 0, p["door_rows"] > 0
+    travel = g.switch(p["open_drawer"] > 0, 0.0, p["drawer_open"] * p["depth"])
+    # parameters of absent rows reach no geometry: their rules are inferred from these
+    choices = {"travel": g.switch(has_drawers, 0.0, travel),
+               "drawer_columns": g.switch(has_drawers, 1, p["drawer_columns"]),
+               "door_columns": g.switch(has_doors, 1, p["door_columns"]),
+               "door_height": g.switch(has_doors, 1.0, p["door_height"])}
+    rows = p["drawer_rows"] + p["door_rows"]
+    total = g.max(p["drawer_rows"] + p["door_rows"] * choices["door_height"], 1.0)
     zone = Repeat(g, rows, geometry=None, start=c.along(p["frame_width"]))
-    row = _Row(c, zone, rows, total, weights, columns)
+    row = _Row(c, zone, rows, total, choices)
     built = g.join([zone["geometry"], g.label_part(row.fronts(), row.label),
-                    row.handles(shapes)])
+                    row.handles(_handle_shape(c))])
     return zone.close(geometry=built, start=row.end)["geometry"]
 
 
@@ -298,32 +271,29 @@ def _fronts(c: _Cabinet):
 def _top_board(c: _Cabinet):
     g, p = c.g, c.p
     overhang = p["top_overhang"]
-    board = seat(g, width=g.add(g.mul(p["width"], p["top_width"]), g.mul(overhang, 2.0)),
-                 depth=g.add(p["depth"], overhang), roundness=0.0,
-                 top=g.add(c.top, g.sub(p["top_thickness"], SINK)),
-                 thickness=p["top_thickness"], bevel=p["top_bevel"], part=TOP)["Mesh"]
-    moved = g.transform(board, translation=g.combine(0.0, g.mul(overhang, -0.5), 0.0))
-    return g.switch(p["top_board"], None, moved, data_type="GEOMETRY")
+    board = seat(g, width=p["width"] * p["top_width"] + 2.0 * overhang,
+                 depth=p["depth"] + overhang, roundness=0.0,
+                 top=c.top + p["top_thickness"] - SINK, thickness=p["top_thickness"],
+                 bevel=p["top_bevel"], part=TOP)["Mesh"]
+    moved = g.transform(board, translation=g.vec(0, -0.5 * overhang, 0))
+    return g.switch(p["top_board"], None, moved)
 
 
 def _plinth(c: _Cabinet):
     g, p = c.g, c.p
-    inset = g.mul(p["plinth_inset"], 2.0)
-    return seat(g, width=g.sub(p["width"], inset), depth=g.sub(p["depth"], inset),
-                roundness=0.0, top=g.add(c.bottom, SINK), thickness=g.add(c.bottom, SINK),
-                bevel=0.0, part=PLINTH)["Mesh"]
+    inset = 2.0 * p["plinth_inset"]
+    return seat(g, width=p["width"] - inset, depth=p["depth"] - inset, roundness=0.0,
+                top=c.bottom + SINK, thickness=c.bottom + SINK, bevel=0.0, part=PLINTH)["Mesh"]
 
 
 def _legs(c: _Cabinet):
     """Four legs from inside the body's bottom corners to the floor (one, mirrored twice)."""
     g, p = c.g, c.p
-    inset = g.mul(p["leg_thickness"], LEG_INSET)
-    x = g.sub(g.mul(p["width"], 0.5), inset)
-    y = g.sub(g.mul(p["depth"], 0.5), inset)
-    one = leg(g, top=g.combine(x, y, g.add(c.bottom, SINK)),
-              bottom=g.combine(g.add(x, p["leg_splay"]), g.add(y, p["leg_splay"]), 0.0),
+    inset = p["leg_thickness"] * LEG_INSET
+    x, y, splay = 0.5 * p["width"] - inset, 0.5 * p["depth"] - inset, p["leg_splay"]
+    one = leg(g, top=g.vec(x, y, c.bottom + SINK), bottom=g.vec(x + splay, y + splay, 0.0),
               curvature=1.0, top_radius=p["leg_thickness"],
-              bottom_radius=g.mul(p["leg_thickness"], p["leg_taper"]),
+              bottom_radius=p["leg_thickness"] * p["leg_taper"],
               roundness=p["leg_roundness"], part=LEGS)["Mesh"]
     pair = mirror(g, geometry=one, axis=0)["Geometry"]
     return mirror(g, geometry=pair, axis=1)["Geometry"]
@@ -332,9 +302,7 @@ def _legs(c: _Cabinet):
 def build(g: Graph) -> None:
     p = _parameters(g)
     c = _Cabinet(g, p)
-    base = g.index_switch(p["base_style"], [None, _plinth(c), _legs(c)], data_type="GEOMETRY")
-    cabinet = g.join([_body(c), _fronts(c), _top_board(c), base])
-    # ground it: a splayed leg's foot dips a little below its axis' end
-    lowest = g.separate(g.node("GeometryNodeBoundBox", {"Geometry": cabinet})["Min"])["Z"]
+    base = g.index_switch(p["base_style"], [None, _plinth(c), _legs(c)])
+    # grounded: a splayed leg's foot dips a little below its axis' end
     g.output("Geometry", "geometry",
-             g.transform(cabinet, translation=g.combine(0.0, 0.0, g.mul(lowest, -1.0))))
+             g.ground(g.join([_body(c), _fronts(c), _top_board(c), base])))

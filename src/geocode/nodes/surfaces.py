@@ -1,4 +1,4 @@
-"""Loft: a surface between two curves, the block that fills a shape between its two sides."""
+"""Surfaces: Loft, a surface between two curves (it fills a shape between its two sides)."""
 
 from __future__ import annotations
 
@@ -23,17 +23,14 @@ def loft(g: Graph) -> None:
     inset = g.input("Inset", "float", default=0.0)
     rows = g.input("Rows", "int", default=8, min=1, max=256)
     columns = g.input("Columns", "int", default=1, min=1, max=256)
-    grid = g.node("GeometryNodeMeshGrid", {
-        "Size X": 1.0, "Size Y": 1.0, "Vertices X": g.int_math("ADD", columns, 1),
-        "Vertices Y": g.int_math("ADD", rows, 1)})
-    unit = g.separate(g.position())  # the unit grid: u = x + 1/2, v = y + 1/2
-    u, v = g.add(unit["X"], 0.5), g.add(unit["Y"], 0.5)
+    grid = g.node("GeometryNodeMeshGrid", {"Size X": 1.0, "Size Y": 1.0,
+                                           "Vertices X": columns + 1, "Vertices Y": rows + 1})
+    u, v = g.position().x + 0.5, g.position().y + 0.5  # on the unit grid
     factor = g.lerp(start, end, v)
     a, b = (g.node("GeometryNodeSampleCurve", {"Curves": curve, "Factor": factor},
                    mode="FACTOR", use_all_curves=False)["Position"]
             for curve in (curve_a, curve_b))
-    across = g.vmath("SUBTRACT", b, a)
-    on_span = g.vmath("ADD", a, g.vmath("SCALE", across, g.lerp(span_start, span_end, u)))
-    inward = g.vmath("SCALE", g.vmath("NORMALIZE", across), g.mul(inset, g.sub(1.0, g.mul(u, 2.0))))
-    g.output("Mesh", "geometry", g.node("GeometryNodeSetPosition", {
-        "Geometry": grid, "Position": g.vmath("ADD", on_span, inward)}))
+    across = b - a
+    on_span = a + across * g.lerp(span_start, span_end, u)
+    inward = g.normalize(across) * (inset * (1.0 - 2.0 * u))
+    g.output("Mesh", "geometry", g.set_position(grid, position=on_span + inward))
