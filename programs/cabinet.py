@@ -37,7 +37,7 @@ from geocode.nodes import (
     sample_curve_array,
     solidify,
 )
-from geocode.nodes.parts import leg, seat
+from geocode.nodes.parts import leg_mesh, seat
 from geocode.nodes.styles import bezier_segment_style
 
 BODY, TOP, DRAWERS, DOORS, HANDLES, PLINTH, LEGS = range(1, 8)
@@ -103,20 +103,22 @@ class _Cabinet:
 
     def __init__(self, g: Graph, p: dict):
         self.g, self.p = g, p
-        self.bottom = g.index_switch(p["base_style"], [0.0, p["base_height"], p["base_height"]])
-        self.top = self.bottom + p["height"]
-        self.front = -0.5 * p["depth"]
+        self.bottom = g.named("bottom", g.index_switch(
+            p["base_style"], [0.0, p["base_height"], p["base_height"]]))
+        self.top = g.named("top", self.bottom + p["height"])
+        self.front = g.named("front", -0.5 * p["depth"])
         half = 0.5 * p["width"]
         bottom_corner = g.vec(half, self.front, self.bottom)
         top_corner = g.vec(half * p["top_width"], self.front, self.top)
-        self.right = quadratic_cartesian(g, start=bottom_corner, end=top_corner,
-                                         offset=g.vec(p["side_curvature"], 0.0, 0.0),
-                                         resolution=SIDE_RESOLUTION)["Curve"]
-        self.left = self.mirrored(self.right)
+        self.right = g.named("right side", quadratic_cartesian(
+            g, start=bottom_corner, end=top_corner, offset=g.vec(p["side_curvature"], 0, 0),
+            resolution=SIDE_RESOLUTION)["Curve"])
+        self.left = g.named("left side", self.mirrored(self.right))
         # the fronts' sides: the body's sides moved in by the frame
-        self.inner_right = g.transform(self.right, translation=g.vec(-p["frame_width"], 0, 0))
-        self.inner_left = self.mirrored(self.inner_right)
-        self.side_length = g.distance(bottom_corner, top_corner)
+        self.inner_right = g.named("inner right side", g.transform(
+            self.right, translation=g.vec(-p["frame_width"], 0, 0)))
+        self.inner_left = g.named("inner left side", self.mirrored(self.inner_right))
+        self.side_length = g.named("side length", g.distance(bottom_corner, top_corner))
 
     def mirrored(self, curve):
         return self.g.transform(curve, scale=(-1.0, 1.0, 1.0))
@@ -291,18 +293,30 @@ def _legs(c: _Cabinet):
     g, p = c.g, c.p
     inset = p["leg_thickness"] * LEG_INSET
     x, y, splay = 0.5 * p["width"] - inset, 0.5 * p["depth"] - inset, p["leg_splay"]
-    one = leg(g, top=g.vec(x, y, c.bottom + SINK), bottom=g.vec(x + splay, y + splay, 0.0),
-              curvature=1.0, top_radius=p["leg_thickness"],
-              bottom_radius=p["leg_thickness"] * p["leg_taper"],
-              roundness=p["leg_roundness"], part=LEGS)["Mesh"]
+    one = leg_mesh(g, top=g.vec(x, y, c.bottom + SINK), bottom=g.vec(x + splay, y + splay, 0.0),
+                   curvature=1.0, top_radius=p["leg_thickness"],
+                   bottom_radius=p["leg_thickness"] * p["leg_taper"],
+                   roundness=p["leg_roundness"], part=LEGS)["Mesh"]
     pair = mirror(g, geometry=one, axis=0)["Geometry"]
     return mirror(g, geometry=pair, axis=1)["Geometry"]
 
 
 def build(g: Graph) -> None:
-    p = _parameters(g)
-    c = _Cabinet(g, p)
-    base = g.index_switch(p["base_style"], [None, _plinth(c), _legs(c)])
-    # grounded: a splayed leg's foot dips a little below its axis' end
-    g.output("Geometry", "geometry",
-             g.ground(g.join([_body(c), _fronts(c), _top_board(c), base])))
+    with g.frame("Parameters"):
+        p = _parameters(g)
+    with g.part("Sides"):
+        c = _Cabinet(g, p)
+    with g.part("Body"):
+        body = _body(c)
+    with g.part("Fronts"):
+        fronts = _fronts(c)
+    with g.part("Top Board"):
+        top = _top_board(c)
+    with g.part("Plinth"):
+        plinth = _plinth(c)
+    with g.part("Legs"):
+        legs = _legs(c)
+    with g.frame("Assembly"):
+        base = g.index_switch(p["base_style"], [None, plinth, legs])
+        # grounded: a splayed leg's foot dips a little below its axis' end
+        g.output("Geometry", "geometry", g.ground(g.join([body, fronts, top, base])))
