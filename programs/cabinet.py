@@ -1,4 +1,4 @@
-"""The cabinet program (33 parameters: 9 discrete, 24 continuous): the paper's example of the
+"""The cabinet program (33 parameters: 8 discrete, 25 continuous): the paper's example of the
 blocks carried to a new domain, a cabinet whose drawers follow the frame's profile and whose
 handles stay attached (its "structural integrity discussion").
 
@@ -207,15 +207,19 @@ class _Row:
         # doors: the handle moves towards the cabinet's middle, beside the door's inner edge
         inward = g.math("SIGN", g.position().x) * front_width * (-0.5 * DOOR_HANDLE_SHIFT)
         placed = g.set_position(centres, offset=g.vec(g.switch(self.is_door, 0.0, inward), 0, 0))
-        length = p["handle_length"] * g.switch(self.is_door, front_width, front_height)
-        shape = g.switch(self.is_door, handle_shape(length, upright=False),
-                         handle_shape(length, upright=True))
-        return g.instance_on_points(placed, shape)
+        local = handle_shape(p["handle_length"] * g.switch(self.is_door, front_width,
+                                                            front_height))
+        # local +x (out of the front) -> world -y; local z (along a bar) -> world x, or z
+        # on a door
+        lying = g.transform(g.transform(local, rotation=(0.0, math.pi / 2, 0.0)),
+                            rotation=(-math.pi / 2, 0.0, 0.0))
+        upright = g.transform(local, rotation=(0.0, 0.0, -math.pi / 2))
+        return g.instance_on_points(placed, g.switch(self.is_door, lying, upright))
 
 
 def _handle_shape(c: _Cabinet):
-    """handle(length, upright): the chosen handle at the origin, its foot on the plane y = 0,
-    standing out to -y; a bar lies along x (along z when upright)."""
+    """shape(length): the chosen handle at the origin, its foot on the plane x = 0, standing
+    out to +x; a bar of `length` lies along z."""
     g, p = c.g, c.p
 
     def bar(length):
@@ -237,13 +241,8 @@ def _handle_shape(c: _Cabinet):
                                     start_handle=0.4 * size, end_handle=1.3 * size,
                                     end=0.6 * size, fill_caps=True, part=HANDLES)["Mesh"]
 
-    def shape(length, upright):
-        local = g.index_switch(p["handle_style"], [None, bar(length), knob()])
-        # local +x (out of the front) -> world -y; local z (along the bar) -> world z or x
-        if upright:
-            return g.transform(local, rotation=(0.0, 0.0, -math.pi / 2))
-        along_x = g.transform(local, rotation=(0.0, math.pi / 2, 0.0))
-        return g.transform(along_x, rotation=(-math.pi / 2, 0.0, 0.0))
+    def shape(length):
+        return g.index_switch(p["handle_style"], [None, bar(length), knob()])
 
     return shape
 
