@@ -191,7 +191,7 @@ class _Row:
         cell = g.join([self.front(span_start, span_end), self.box(span_start, span_end)])
         return zone.close(geometry=g.join([zone["geometry"], cell]))["geometry"]
 
-    def handles(self, handle_shape):
+    def handles(self):
         """A handle on each front: SampleCurveArray on the row's line across its fronts, at
         the handle's height on the fronts' face, gives the fronts' centres."""
         g, p, c = self.g, self.p, self.c
@@ -207,44 +207,44 @@ class _Row:
         # doors: the handle moves towards the cabinet's middle, beside the door's inner edge
         inward = g.math("SIGN", g.position().x) * front_width * (-0.5 * DOOR_HANDLE_SHIFT)
         placed = g.set_position(centres, offset=g.vec(g.switch(self.is_door, 0.0, inward), 0, 0))
-        local = handle_shape(p["handle_length"] * g.switch(self.is_door, front_width,
-                                                            front_height))
-        # local +x (out of the front) -> world -y; local z (along a bar) -> world x, or z
-        # on a door
-        lying = g.transform(g.transform(local, rotation=(0.0, math.pi / 2, 0.0)),
-                            rotation=(-math.pi / 2, 0.0, 0.0))
-        upright = g.transform(local, rotation=(0.0, 0.0, -math.pi / 2))
-        return g.instance_on_points(placed, g.switch(self.is_door, lying, upright))
+        length = p["handle_length"] * g.switch(self.is_door, front_width, front_height)
+
+        def on_fronts(handle):
+            # handle +x (out of the front) -> world -y; its z (along a bar) -> world x, or z
+            # on a door
+            lying = g.transform(g.transform(handle, rotation=(0.0, math.pi / 2, 0.0)),
+                                rotation=(-math.pi / 2, 0.0, 0.0))
+            upright = g.transform(handle, rotation=(0.0, 0.0, -math.pi / 2))
+            return g.instance_on_points(placed, g.switch(self.is_door, lying, upright))
+
+        return g.index_switch(p["handle_style"], [None, on_fronts(_bar(c, length)),
+                                                  on_fronts(_knob(c))])
 
 
-def _handle_shape(c: _Cabinet):
-    """shape(length): the chosen handle at the origin, its foot on the plane x = 0, standing
-    out to +x; a bar of `length` lies along z."""
+# handles at the origin, their foot on the plane x = 0, standing out to +x
+
+def _bar(c: _Cabinet, length):
+    """A CurveHandle attached at both ends to a line of `length` along z (it works in the XZ
+    plane, bulging to +x), swept with a square-to-round tube."""
     g, p = c.g, c.p
+    attach = g.line(g.vec(0, 0, -0.5 * length), g.vec(0, 0, 0.5 * length))
+    curve = handle(g, curve=attach, start=0.0, end=1.0, reach=p["handle_reach"], peak=0.5,
+                   inset=SINK, resolution=12)["Curve"]
+    profile = rectangle_fillet(g, width=2.0, height=2.0, roundness=p["handle_roundness"],
+                               resolution=2)["Curve"]
+    return rail(g, curve=curve, profile_curve=profile, radius=p["handle_thickness"],
+                fill_caps=True, part=HANDLES)["Mesh"]
 
-    def bar(length):
-        # CurveHandle works in the XZ plane, bulging to +x: built there, then turned
-        attach = g.line(g.vec(0, 0, -0.5 * length), g.vec(0, 0, 0.5 * length))
-        curve = handle(g, curve=attach, start=0.0, end=1.0, reach=p["handle_reach"],
-                       peak=0.5, inset=SINK, resolution=12)["Curve"]
-        profile = rectangle_fillet(g, width=2.0, height=2.0, roundness=p["handle_roundness"],
-                                   resolution=2)["Curve"]
-        return rail(g, curve=curve, profile_curve=profile, radius=p["handle_thickness"],
-                    fill_caps=True, part=HANDLES)["Mesh"]
 
-    def knob():
-        stem = g.line(g.vec(-SINK, 0, 0), g.vec(p["handle_reach"], 0, 0), count=8)
-        profile = rectangle_fillet(g, width=2.0, height=2.0, roundness=1.0,
-                                   resolution=2)["Curve"]
-        size = p["knob_size"]
-        return bezier_segment_style(g, curve=stem, profile_curve=profile, start=0.4 * size,
-                                    start_handle=0.4 * size, end_handle=1.3 * size,
-                                    end=0.6 * size, fill_caps=True, part=HANDLES)["Mesh"]
-
-    def shape(length):
-        return g.index_switch(p["handle_style"], [None, bar(length), knob()])
-
-    return shape
+def _knob(c: _Cabinet):
+    """A round stem widening into a head (StyleBezierSegment)."""
+    g, p = c.g, c.p
+    stem = g.line(g.vec(-SINK, 0, 0), g.vec(p["handle_reach"], 0, 0), count=8)
+    profile = rectangle_fillet(g, width=2.0, height=2.0, roundness=1.0, resolution=2)["Curve"]
+    size = p["knob_size"]
+    return bezier_segment_style(g, curve=stem, profile_curve=profile, start=0.4 * size,
+                                start_handle=0.4 * size, end_handle=1.3 * size,
+                                end=0.6 * size, fill_caps=True, part=HANDLES)["Mesh"]
 
 
 def _fronts(c: _Cabinet):
@@ -263,7 +263,7 @@ def _fronts(c: _Cabinet):
     zone = Repeat(g, rows, geometry=None, start=c.along(p["frame_width"]))
     row = _Row(c, zone, rows, total, choices)
     built = g.join([zone["geometry"], g.label_part(row.fronts(), row.label),
-                    row.handles(_handle_shape(c))])
+                    row.handles()])
     return zone.close(geometry=built, start=row.end)["geometry"]
 
 

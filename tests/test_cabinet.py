@@ -71,6 +71,7 @@ def test_visibility_rules_are_inferred_from_the_switches(cabinet):
     assert rules["handle_length"] == "handle_style == 1"
     assert rules["knob_size"] == "handle_style == 2"
     assert rules["handle_reach"] == "handle_style == 1 or handle_style == 2"
+    assert rules["handle_height"] == "handle_style == 1 or handle_style == 2"
     assert rules["top_overhang"] == "top_board"
     assert rules["plinth_inset"] == "base_style == 1"
     assert rules["leg_splay"] == "base_style == 2"
@@ -81,7 +82,8 @@ def test_visibility_rules_are_inferred_from_the_switches(cabinet):
 
 
 @pytest.mark.parametrize("hidden, change", [
-    ({"handle_style": 0}, {"handle_length": 0.7, "handle_reach": 0.06, "knob_size": 0.03}),
+    ({"handle_style": 0}, {"handle_length": 0.7, "handle_reach": 0.06, "knob_size": 0.03,
+                           "handle_height": 0.75}),
     ({"handle_style": 1}, {"knob_size": 0.03}),
     ({"top_board": 0}, {"top_overhang": 0.06, "top_thickness": 0.05}),
     ({"base_style": 1}, {"leg_splay": 0.05, "leg_thickness": 0.04}),
