@@ -10,7 +10,8 @@ Structure (every part touches the rest for every parameter combination):
 - lid and knob on the lip, a rim around the lip, a band around the body;
 - foot: none, a pedestal, or radially placed legs; the whole vase is then grounded so that
   its lowest point lies on z = 0.
-Part labels: body 1, rim 2, band 3, handle 4, lid 5, knob 6, foot 7.
+Part labels: body 1, rim 2, band 3, handle 4, lid 5, knob 6, foot 7. In Blender's node
+editor each part is a node group: Body, Lip Rim, Band, Handles, Lid, Pedestal, Legs.
 """
 
 from __future__ import annotations
@@ -62,7 +63,7 @@ def vase_radius(g: Graph) -> None:
 
 
 class _Body:
-    """The body's shared quantities, so that every attached part follows edits."""
+    """Quantities of the body that its parts are placed from, so that they follow edits."""
 
     def __init__(self, g: Graph, p: dict):
         self.g, self.p = g, p
@@ -249,8 +250,10 @@ def _pedestal(body: _Body):
 
 
 def _legs(body: _Body):
-    """`leg_count` legs (radial copies from 45 degrees), each from (0.6 `base_width`, 0,
-    `foot_height`) down to the floor, its foot spread outwards by `leg_splay`."""
+    """`leg_count` legs (radial copies from 45 degrees), each a quadratic curve from
+    (0.6 `base_width`, 0, `foot_height` + `OVERLAP`) down to the floor, its foot spread
+    outwards by `leg_splay` and its middle bowed out by 0.3 `leg_splay`; tapering to 0.7 of
+    `leg_thickness` at the foot."""
     g, p = body.g, body.p
     x = p["base_width"] * 0.6
     start = g.vec(x, 0.0, p["foot_height"] + OVERLAP)
