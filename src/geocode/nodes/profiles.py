@@ -15,8 +15,7 @@ def corner_radius(g: Graph, roundness, width, height):
     """The fillet radius of a `width` x `height` rectangle's corners at `roundness` (clamped to
     ROUNDNESS_LIMITS): `roundness` times half the shorter side."""
     low, high = ROUNDNESS_LIMITS
-    clamped = g.node("ShaderNodeClamp", {"Value": roundness, "Min": low, "Max": high}).out
-    return g.mul(clamped, g.mul(g.minimum(width, height), 0.5))
+    return g.clamp(roundness, low, high) * (g.min(width, height) * 0.5)
 
 
 @node_group("ProfileRectangleFillet")
