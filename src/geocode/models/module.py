@@ -10,7 +10,9 @@ Variants:
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
+from functools import partial
 
 import pytorch_lightning as pl
 import torch
@@ -21,6 +23,7 @@ from geocode.models.heads import Decoders
 from geocode.models.vgg import VGG_CHANNELS, VGGSketchEncoder
 
 VARIANTS = ("joint", "separate", "regression", "huang")
+SCHEDULES = ("step", "cosine")  # the paper's StepLR; warmup + cosine decay for short budgets
 MODALITIES = ("points", "sketch")
 
 
@@ -105,14 +108,19 @@ class GeoCodeModule(pl.LightningModule):
         lr: float = 1e-2,
         step_size: int = 20,
         gamma: float = 0.9,
+        schedule: str = "step",
+        warmup_epochs: int = 0,
     ) -> None:
         super().__init__()
+        if schedule not in SCHEDULES:
+            raise ValueError(f"train.schedule={schedule!r}: use one of {', '.join(SCHEDULES)}")
         heads = [dict(h) for h in heads]
         self.save_hyperparameters(
             {"heads": heads, "variant": variant, "k": k, "edge_channels": list(edge_channels),
              "point_channels": point_channels, "sketch_channels": list(sketch_channels),
              "sketch_pool": sketch_pool, "hidden": list(hidden), "dropout": dropout, "fast": fast,
-             "lr": lr, "step_size": step_size, "gamma": gamma}
+             "lr": lr, "step_size": step_size, "gamma": gamma, "schedule": schedule,
+             "warmup_epochs": warmup_epochs}
         )
         self.parameter_names = [h["name"] for h in heads]
         self.columns = {name: j for j, name in enumerate(self.parameter_names)}
@@ -183,5 +191,18 @@ class GeoCodeModule(pl.LightningModule):
     def configure_optimizers(self):
         hp = self.hparams
         opt = torch.optim.Adam(self.parameters(), lr=hp.lr)
-        sched = torch.optim.lr_scheduler.StepLR(opt, step_size=hp.step_size, gamma=hp.gamma)
+        if hp.get("schedule", "step") == "step":
+            sched = torch.optim.lr_scheduler.StepLR(opt, step_size=hp.step_size, gamma=hp.gamma)
+        else:
+            factor = partial(cosine_factor, warmup=hp.warmup_epochs, total=self.trainer.max_epochs)
+            sched = torch.optim.lr_scheduler.LambdaLR(opt, factor)
         return {"optimizer": opt, "lr_scheduler": {"scheduler": sched, "interval": "epoch"}}
+
+
+def cosine_factor(epoch: int, warmup: int, total: int) -> float:
+    """The learning rate's factor in an epoch: a linear rise over `warmup` epochs, then a
+    cosine from 1 down to 0.05 at the last epoch."""
+    if epoch < warmup:
+        return (epoch + 1) / (warmup + 1)
+    progress = (epoch - warmup) / max(total - warmup - 1, 1)
+    return 0.05 + 0.95 * 0.5 * (1 + math.cos(math.pi * min(progress, 1.0)))
