@@ -148,6 +148,7 @@ def train(cfg: DictConfig, out_dir: str | Path | None = None) -> dict:
     trainer.fit(model, datamodule=data, ckpt_path=resume, weights_only=True)
     score = best_cb.best_model_score
     curves = epoch_metrics(out)
+    majority = majority_per_parameter(cfg, recipe)
     best_row = curves.loc[curves["val/acc"].idxmax()] if "val/acc" in curves else {}
     result = {
         "out_dir": str(out),
@@ -155,7 +156,8 @@ def train(cfg: DictConfig, out_dir: str | Path | None = None) -> dict:
         "last": str(last),
         "best_val_acc": None if score is None else float(score),
         **{f"best_val_acc_{m}": float(best_row[f"val/acc_{m}"]) for m in MODALITIES if f"val/acc_{m}" in curves},
-        "majority_val_acc": majority_accuracy(cfg, recipe),
+        "majority_val_acc": float(np.mean(list(majority.values()))),
+        "majority_per_parameter": majority,
         "epochs": int(trainer.current_epoch),
         "resumed": resume is not None,
     }
@@ -177,13 +179,19 @@ def epoch_metrics(run: str | Path) -> pd.DataFrame:
 def majority_accuracy(cfg: DictConfig, recipe) -> float:
     """The bar a model must clear: mean top-1 accuracy over parameters on the val split of
     always predicting each parameter's most frequent class in the train split."""
+    return float(np.mean(list(majority_per_parameter(cfg, recipe).values())))
+
+
+def majority_per_parameter(cfg: DictConfig, recipe) -> dict[str, float]:
+    """{parameter: val accuracy of its most frequent train class}, in recipe order."""
     from geocode.config import data_dir
     from geocode.variations import load_recipes
 
     classes = {split: recipe.class_matrix(load_recipes(data_dir(cfg, cfg.domain.name, split) / "recipes.parquet"))
                for split in ("train", "val")}
     common = np.array([np.bincount(column).argmax() for column in classes["train"].T])  # (P,)
-    return float((classes["val"] == common).mean())
+    hits = (classes["val"] == common).mean(axis=0)  # (P,)
+    return {p.name: float(h) for p, h in zip(recipe.parameters, hits, strict=True)}
 
 
 # ---------------------------------------------------------------- checkpoints
