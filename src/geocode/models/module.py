@@ -60,12 +60,21 @@ class Branch(nn.Module):
         return self.decoders[modality if modality in self.decoders else "shared"]
 
     def forward(self, points=None, sketches=None) -> dict[str, dict[str, torch.Tensor]]:
-        out = {}
+        embeddings = {}
         if points is not None:
-            out["points"] = self.decoder("points")(self.points(points))
+            embeddings["points"] = self.points(points)
         if sketches is not None:
-            out["sketch"] = self.decoder("sketch")(self.sketch(sketches))
-        return out
+            embeddings["sketch"] = self.sketch(sketches)
+        if "shared" not in self.decoders:
+            return {m: self.decoders[m](e) for m, e in embeddings.items()}
+        # Shared decoders see both modalities in one batch: their BatchNorm then normalises
+        # in training with the statistics it keeps for evaluation. Called once per modality,
+        # the running statistics would blend two distributions that training never saw
+        # blended, and eval-mode predictions of both modalities would suffer.
+        outputs = self.decoders["shared"](torch.cat(list(embeddings.values())))
+        sizes = [len(e) for e in embeddings.values()]
+        parts = {name: out.split(sizes) for name, out in outputs.items()}
+        return {m: {name: p[i] for name, p in parts.items()} for i, m in enumerate(embeddings)}
 
 
 def branch_layout(variant: str, specs: Sequence[Mapping]) -> list[tuple[list[dict], bool, bool]]:
