@@ -9,9 +9,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 from PIL import Image
-from test_training_data import DOMAIN, N_PICK, make_dataset
+from test_training_data import DOMAIN, toy_config
 
-from geocode.config import compose
 from geocode.report import (
     cloud_image,
     curve_svg,
@@ -32,14 +31,7 @@ IMAGE_CHECK = ("<script>addEventListener('load', () => { const im = [...document
 @pytest.fixture(scope="module")
 def run(tmp_path_factory):
     """A three-epoch joint run on the synthetic dataset: (run folder, summary)."""
-    root = tmp_path_factory.mktemp("report")
-    data, build, recipe_path = make_dataset(root)
-    cfg = compose([
-        "profile=smoke", f"paths.data={data}", f"paths.build={build}", f"paths.runs={root / 'runs'}",
-        f"domain.name={DOMAIN}", f"domain.recipe={recipe_path}", f"data.points.train_random={N_PICK}",
-        "train.max_epochs=3", "train.batch_size=4", "train.accelerator=cpu", "train.devices=1",
-    ])
-    result = train(cfg)
+    result = train(toy_config(tmp_path_factory.mktemp("report"), epochs=3))
     return Path(result["out_dir"]), json.loads((Path(result["out_dir"]) / SUMMARY).read_text())
 
 

@@ -78,6 +78,18 @@ def make_dataset(root, sizes=None, seed=0):
     return root / "data", build, recipe_path
 
 
+def toy_config(root, epochs: int):
+    """The composed config of a CPU training run on `make_dataset(root)`."""
+    from geocode.config import compose
+
+    data, build, recipe_path = make_dataset(root)
+    return compose([
+        "profile=smoke", f"paths.data={data}", f"paths.build={build}", f"paths.runs={root / 'runs'}",
+        f"domain.name={DOMAIN}", f"domain.recipe={recipe_path}", f"data.points.train_random={N_PICK}",
+        f"train.max_epochs={epochs}", "train.batch_size=4", "train.accelerator=cpu", "train.devices=1",
+    ])
+
+
 @pytest.fixture
 def dataset(tmp_path):
     data, build, recipe_path = make_dataset(tmp_path)
