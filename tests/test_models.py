@@ -257,6 +257,17 @@ def test_shared_decoders_keep_the_statistics_of_both_modalities_together(variant
         torch.testing.assert_close(bn.running_mean, out.mean(dim=0))
 
 
+def test_cosine_schedule_warms_up_then_decays():
+    from geocode.models.module import cosine_factor
+
+    factors = [cosine_factor(e, warmup=2, total=10) for e in range(10)]
+    assert factors[:3] == pytest.approx([1 / 3, 2 / 3, 1.0])
+    assert factors[-1] == pytest.approx(0.05)
+    assert all(a > b for a, b in zip(factors[2:], factors[3:], strict=False))  # decays after the warmup
+    with pytest.raises(ValueError, match="train.schedule='linear'"):
+        GeoCodeModule(HEADS, schedule="linear")
+
+
 def _compose_model(name):
     """The composed config's model group; the group file alone where conf/config.yaml is missing."""
     from omegaconf import OmegaConf

@@ -107,8 +107,8 @@ def train(cfg: DictConfig, out_dir: str | Path | None = None) -> dict:
     """Fit cfg.model on cfg.domain's train split, validate on val; checkpoints in
     <out>/checkpoints (best.ckpt by val/acc, last.ckpt), CSV and TensorBoard logs in <out>,
     the best scores beside the majority bar in <out>/summary.json. Resumes from last.ckpt
-    when it is there; stops early after train.patience epochs without a better val/acc."""
-    from pytorch_lightning.callbacks import EarlyStopping, ModelCheckpoint
+    when it is there."""
+    from pytorch_lightning.callbacks import ModelCheckpoint
     from pytorch_lightning.loggers import CSVLogger, TensorBoardLogger
 
     t = cfg.train
@@ -126,9 +126,6 @@ def train(cfg: DictConfig, out_dir: str | Path | None = None) -> dict:
     OmegaConf.save(cfg, out / "config.yaml", resolve=True)
     best_cb = ModelCheckpoint(dirpath=ckpt_dir, filename="best", monitor="val/acc", mode="max",
                               save_last=True, enable_version_counter=False)
-    callbacks = [best_cb, EpochLog()]
-    if t.get("patience"):
-        callbacks.append(EarlyStopping(monitor="val/acc", mode="max", patience=int(t.patience)))
     progress = t.get("progress_bar")
     trainer = pl.Trainer(
         max_epochs=int(t.max_epochs),
@@ -137,7 +134,7 @@ def train(cfg: DictConfig, out_dir: str | Path | None = None) -> dict:
         deterministic=t.get("deterministic", False),
         default_root_dir=out,
         logger=[CSVLogger(out, name="logs"), TensorBoardLogger(out, name="tb")],  # version_<n> per (re)start
-        callbacks=callbacks,
+        callbacks=[best_cb, EpochLog()],
         enable_progress_bar=sys.stderr.isatty() if progress is None else bool(progress),
         enable_model_summary=False,
         limit_train_batches=t.get("limit_train_batches") or 1.0,
