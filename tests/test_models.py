@@ -253,7 +253,7 @@ def test_shared_decoders_keep_the_statistics_of_both_modalities_together(variant
     for (_, key), calls in seen.items():
         assert len(calls) == 1, key  # one call per forward: both modalities, or one if separate
         out, bn = calls[0]
-        assert len(out) == {"shared": 8, "points": 5, "sketch": 3}[key]
+        assert len(out) == {"common": 8, "points": 5, "sketch": 3}[key]
         torch.testing.assert_close(bn.running_mean, out.mean(dim=0))
 
 

@@ -31,7 +31,8 @@ IMAGE_CHECK = ("<script>addEventListener('load', () => { const im = [...document
 @pytest.fixture(scope="module")
 def run(tmp_path_factory):
     """A three-epoch joint run on the synthetic dataset: (run folder, summary)."""
-    result = train(toy_config(tmp_path_factory.mktemp("report"), epochs=3))
+    with toy_config(tmp_path_factory.mktemp("report"), epochs=3) as cfg:
+        result = train(cfg)
     return Path(result["out_dir"]), json.loads((Path(result["out_dir"]) / SUMMARY).read_text())
 
 

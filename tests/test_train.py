@@ -14,9 +14,9 @@ from geocode.train import CheckpointError, load_model, predict, predict_classes,
 @pytest.fixture(scope="module")
 def run(tmp_path_factory):
     """A one-epoch run of the joint model; returns (cfg, result)."""
-    cfg = toy_config(tmp_path_factory.mktemp("train"), epochs=1)
-    assert [c.name for c in cfg.data.sketch.cameras if c.train] == CAMERAS
-    return cfg, train(cfg)
+    with toy_config(tmp_path_factory.mktemp("train"), epochs=1) as cfg:
+        assert [c.name for c in cfg.data.sketch.cameras if c.train] == CAMERAS
+        yield cfg, train(cfg)
 
 
 def test_one_epoch_writes_checkpoints_and_logs(run):

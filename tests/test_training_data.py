@@ -5,6 +5,7 @@ generated dataset (recipes.parquet, points/*.npz, sketches/*.png): no Blender in
 """
 
 import json
+from contextlib import contextmanager
 
 import numpy as np
 import pandas as pd
@@ -38,10 +39,10 @@ MANIFEST = {
 }
 RECIPE = """\
 parameters:
-  height: {min: 0.5, max: 1.5, samples: 3}
-  has_handle: {min: 0, max: 1}
-  handle_size: {min: 0.0, max: 0.3, samples: 2}
-  legs: {min: 0, max: 2}
+  height: {samples: 3}
+  has_handle:
+  handle_size: {samples: 2}
+  legs:
 """
 
 
@@ -78,16 +79,21 @@ def make_dataset(root, sizes=None, seed=0):
     return root / "data", build, recipe_path
 
 
+@contextmanager
 def toy_config(root, epochs: int):
-    """The composed config of a CPU training run on `make_dataset(root)`."""
-    from geocode.config import compose
+    """The composed config of a CPU training run on `make_dataset(root)`, with the toy
+    domain in the program registry while the context lasts."""
+    from geocode.config import PROGRAMS_ENV, compose
 
     data, build, recipe_path = make_dataset(root)
-    return compose([
-        "profile=smoke", f"paths.data={data}", f"paths.build={build}", f"paths.runs={root / 'runs'}",
-        f"domain.name={DOMAIN}", f"domain.recipe={recipe_path}", f"data.points.train_random={N_PICK}",
-        f"train.max_epochs={epochs}", "train.batch_size=4", "train.accelerator=cpu", "train.devices=1",
-    ])
+    recipe_path.with_suffix(".py").write_text("")  # registers the domain; training never runs it
+    with pytest.MonkeyPatch.context() as env:
+        env.setenv(PROGRAMS_ENV, str(recipe_path.parent))
+        yield compose([
+            "profile=smoke", f"paths.data={data}", f"paths.build={build}", f"paths.runs={root / 'runs'}",
+            f"domain={DOMAIN}", f"data.points.train_random={N_PICK}",
+            f"train.max_epochs={epochs}", "train.batch_size=4", "train.accelerator=cpu", "train.devices=1",
+        ])
 
 
 @pytest.fixture
@@ -118,7 +124,7 @@ def test_items_train_draws_fresh_eval_fixed(dataset):
     assert a["points"].shape == (N_FPS + N_PICK, 3) and a["sketch"].shape == (1, 224, 224)
     assert torch.equal(a["points"], b["points"]) and torch.equal(a["sketch"], b["sketch"])
     clouds = {"fps": split.fps[1], "random": split.random[1]}
-    np.testing.assert_array_equal(a["points"].numpy(), eval_cloud(clouds, N_PICK, split.ids[1]))
+    np.testing.assert_array_equal(a["points"].numpy(), eval_cloud(clouds, N_PICK, 0, split.ids[1]))
     tr = ShapeItems(load_split(root / "train", recipe, CAMERAS), N_PICK, CAMERAS, train=True,
                     augment=SketchAugment(0, 0, 0))
     torch.manual_seed(0)

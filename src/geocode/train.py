@@ -1,4 +1,4 @@
-"""Training, checkpoints and batch prediction (SPEC §4).
+"""Training, checkpoints and batch prediction (docs/paper-numbers.md#training).
 
     train(cfg, out_dir=None) -> dict        # Lightning fit; resumes from <out>/checkpoints/last.ckpt
     load_model(checkpoint) -> GeoCodeModule  # eval mode, weights_only loading
@@ -85,6 +85,7 @@ def build_datamodule(cfg: DictConfig, recipe):
         eval_camera=t.get("eval_camera"),
         point_augment=PointAugment(**point_aug),
         modalities=list(t.get("modalities") or MODALITIES),
+        seed=int(cfg.seed),
     )
 
 
