@@ -59,6 +59,11 @@ def validate(cfg: DictConfig) -> None:
     pts = cfg.data.points
     if not pts.fps <= pts.surface or not pts.train_random <= pts.random:
         raise ConfigError("data.points: need fps <= surface and train_random <= random")
+    models = sorted(p.stem for p in (repo_root() / "conf" / "model").glob("*.yaml"))
+    lists = {"eval.variants": cfg.eval.variants, **{f"eval.ablations.{d}": v for d, v in cfg.eval.ablations.items()}}
+    for key, names in lists.items():
+        if unknown := [v for v in names if v not in models]:
+            raise ConfigError(f"{key}: no model variant {unknown[0]!r}; use one of {', '.join(models)}")
     names = [c.name for c in cfg.data.sketch.cameras]
     if len(set(names)) != len(names) or not any(c.train for c in cfg.data.sketch.cameras):
         raise ConfigError("data.sketch.cameras: give unique names and at least one with train: true")
@@ -75,6 +80,11 @@ def domains(cfg: DictConfig) -> list[str]:
     if cfg.domains:
         return list(cfg.domains)
     return sorted(p.stem for p in programs_dir().glob("*.py") if p.with_suffix(".yaml").exists())
+
+
+def variants(cfg: DictConfig, domain: str) -> list[str]:
+    """The model variants trained for a domain: eval.variants, then its eval.ablations."""
+    return list(dict.fromkeys([*cfg.eval.variants, *cfg.eval.get("ablations", {}).get(domain, [])]))
 
 
 def data_dir(cfg: DictConfig, domain: str, split: str) -> Path:

@@ -24,14 +24,23 @@ from geocode.variations import load_recipes, save_recipes
 log = logging.getLogger("geocode.evaluation")
 
 KEYS = ["condition", "modality", "source", "camera", "noise", "sparse", "id"]
+MODALITY_NAMES = {"points": "pc", "sketch": "sketch"}  # the model's inputs -> metrics' modality
 
 
 def simplified_split(factor: int) -> str:
     return f"test-s{factor}"
 
 
-def conditions(cfg: DictConfig) -> list[dict]:
-    """Every test input of one domain, as records with the columns of KEYS (less id)."""
+def robustness(variant: str) -> bool:
+    """Whether a variant gets the full evaluation: the robustness inputs, the mean-shape
+    baseline and the drop tests belong to the joint model's tables; the baselines and
+    ablations are compared on clean inputs only."""
+    return variant == "joint"
+
+
+def conditions(cfg: DictConfig, modalities=("pc", "sketch"), full: bool = True) -> list[dict]:
+    """The test inputs of one domain, as records with the columns of KEYS (less id): the
+    clean ones of `modalities` (pc, sketch), and with `full` the robustness inputs."""
     cams = list(cfg.data.sketch.cameras)
     trained = [c.name for c in cams if c.train]
 
@@ -42,6 +51,8 @@ def conditions(cfg: DictConfig) -> list[dict]:
                     camera=camera, noise=float(noise), sparse=int(sparse))
 
     out = [cond("pc")] + [cond("sketch", camera=c.name) for c in cams]
+    if not full:
+        return [c for c in out if c["modality"] in modalities]
     out += [cond("pc", noise=s) for s in cfg.eval.noise]
     out += [cond("pc", sparse=n) for n in cfg.eval.sparse]
     for f in cfg.eval.simplify:
@@ -116,8 +127,10 @@ def predict_step(cfg: DictConfig, domain: str, checkpoint: Path, out: Path) -> s
     recipe = load_recipe(cfg)
     model = load_model(checkpoint)
     ids = test_ids(cfg, domain)
+    full = robustness(model.hparams.variant)
+    modalities = [MODALITY_NAMES[m] for m in model.modalities]
     frames = []
-    for cond in conditions(cfg):
+    for cond in conditions(cfg, modalities, full):
         start = time.perf_counter()
         if cond["modality"] == "pc":
             batch = np.stack([point_input(cfg, domain, cond, i) for i in ids])
@@ -130,7 +143,8 @@ def predict_step(cfg: DictConfig, domain: str, checkpoint: Path, out: Path) -> s
         frame = pd.DataFrame(values)
         frames.append(frame.assign(**cond, id=ids))
         log.info("%s: %d shapes in %.1f s", cond["condition"], len(ids), time.perf_counter() - start)
-    frames.append(mean_shape(cfg, domain, recipe))
+    if full:
+        frames.append(mean_shape(cfg, domain, recipe))
     table = pd.concat(frames, ignore_index=True)
     write_parquet(out, table[KEYS + [c for c in table.columns if c not in KEYS]])
     return f"{domain}: {len(table)} predictions"
@@ -164,8 +178,9 @@ def rebuild_step(cfg: DictConfig, domain: str, predictions: Path, shard: int) ->
 # -- metrics ----------------------------------------------------------------------------------
 
 def metrics_step(cfg: DictConfig, domain: str, predictions: Path, out: Path) -> str:
-    """Chamfer distance of every rebuilt prediction to its ground truth; the drop test on the
-    ground truth and on the clean predictions; one row per prediction (and per GT shape)."""
+    """Chamfer distance of every rebuilt prediction to its ground truth; for the joint model
+    the drop test on the ground truth and on the clean predictions; one row per prediction
+    (and per GT shape)."""
     from geocode.metrics import chamfer_meshes
     from geocode.stability import drop_test
 
@@ -175,20 +190,22 @@ def metrics_step(cfg: DictConfig, domain: str, predictions: Path, out: Path) -> 
     gt_dir = data_dir(cfg, domain, "test") / "shapes"
     cams = {c.name for c in cfg.data.sketch.cameras if c.train}
     gt_meshes = {i: read_obj(gt_dir / f"{i}.obj") for i in test_ids(cfg, domain)}
+    full = robustness(variant)
     rows = []
     for rec in table[KEYS].to_dict("records"):
         pred = read_obj(rebuilt / rec["condition"] / f"{rec['id']}.obj")
         targets = gt_meshes.items() if rec["modality"] == "baseline" else [(rec["id"], gt_meshes[rec["id"]])]
         clean = rec["source"] == "test" and not rec["noise"] and not rec["sparse"]
         stable = np.nan
-        if clean and (rec["modality"] == "pc" or rec["camera"] in cams):
+        if full and clean and (rec["modality"] == "pc" or rec["camera"] in cams):
             stable = float(drop_test(pred)["stable"])
         for gt_id, gt in targets:
             rng = id_seed(cfg.seed, "chamfer", rec["condition"], gt_id)
             cd = chamfer_meshes(pred, gt, n=cfg.eval.chamfer_points, rng=rng)
             rows.append({**rec, "id": gt_id, "chamfer": cd, "stable": stable})
-    rows += [dict(condition="gt", modality="gt", source="test", camera="", noise=0.0, sparse=0,
-                  id=i, chamfer=np.nan, stable=float(drop_test(m)["stable"])) for i, m in gt_meshes.items()]
+    if full:
+        rows += [dict(condition="gt", modality="gt", source="test", camera="", noise=0.0, sparse=0,
+                      id=i, chamfer=np.nan, stable=float(drop_test(m)["stable"])) for i, m in gt_meshes.items()]
     frame = pd.DataFrame(rows).assign(domain=domain, variant=variant)
     write_parquet(out, frame)
     return f"{domain}/{variant}: {len(frame)} metric rows"

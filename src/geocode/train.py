@@ -45,7 +45,18 @@ def run_dir(cfg: DictConfig, out_dir: str | Path | None) -> Path:
         return Path(out_dir)
     if cfg.train.get("out_dir"):
         return Path(cfg.train.out_dir)
-    return Path(cfg.paths.runs) / cfg.domain.name / str(cfg.model.get("variant", "joint"))
+    return Path(cfg.paths.runs) / cfg.domain.name / variant(cfg)
+
+
+def variant(cfg: DictConfig) -> str:
+    return str(cfg.model.get("variant", "joint"))
+
+
+def max_epochs(cfg: DictConfig) -> int:
+    """train.max_epochs times the variant's share in train.variant_epochs (baselines and
+    ablations trained beside the joint model on a smaller budget; 1 where not listed)."""
+    share = float((cfg.train.get("variant_epochs") or {}).get(variant(cfg), 1.0))
+    return max(1, round(int(cfg.train.max_epochs) * share))
 
 
 def build_model(cfg: DictConfig, recipe) -> GeoCodeModule:
@@ -116,7 +127,7 @@ def train(cfg: DictConfig, out_dir: str | Path | None = None) -> dict:
                               save_last=True, enable_version_counter=False)
     progress = t.get("progress_bar")
     trainer = pl.Trainer(
-        max_epochs=int(t.max_epochs),
+        max_epochs=max_epochs(cfg),
         accelerator=t.get("accelerator", "auto"),
         devices=t.get("devices", "auto"),
         deterministic=t.get("deterministic", False),

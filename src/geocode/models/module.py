@@ -4,8 +4,9 @@ Variants:
   joint       one point encoder, one sketch encoder, one set of decoders shared by both
   separate    the same encoders, a set of decoders per modality
   regression  continuous parameters regressed (value, existence) with MSE
-  huang       Huang et al. 2017: a classification network for the discrete parameters and a
-              separate regression network for the continuous ones, trained on the same data
+  huang       Huang et al. 2017: sketches only; a network (its own VGG encoder) classifying the
+              discrete parameters and a separate one regressing the continuous ones, both trained
+              from scratch on the same data (the paper's comparison, supplementary)
 """
 
 from __future__ import annotations
@@ -22,10 +23,22 @@ from geocode.models.vgg import VGG_CHANNELS, VGGSketchEncoder
 
 VARIANTS = ("joint", "separate", "regression", "huang")
 MODALITIES = ("points", "sketch")
+# The inputs a variant can take: Huang et al. 2017 read sketches only.
+VARIANT_MODALITIES = {"huang": ("sketch",)}
+
+
+def variant_modalities(variant: str, modalities: Sequence[str] = MODALITIES) -> list[str]:
+    """The asked-for modalities that the variant takes, in MODALITIES order."""
+    allowed = VARIANT_MODALITIES.get(variant, MODALITIES)
+    kept = [m for m in MODALITIES if m in modalities and m in allowed]
+    if not kept:
+        raise ValueError(f"model.variant={variant} takes {', '.join(allowed)}: "
+                         f"modalities={list(modalities)} leaves it no input")
+    return kept
 
 
 class Branch(nn.Module):
-    """Two encoders and their decoders for a subset of the parameters.
+    """An encoder per modality and their decoders for a subset of the parameters.
 
     Shapes: points (B, N, 3), sketches (B, 1, H, W) -> {modality: {name: (B, width)}}.
     """
@@ -33,6 +46,7 @@ class Branch(nn.Module):
     def __init__(
         self,
         specs: Sequence[Mapping],
+        modalities: Sequence[str],
         separate: bool,
         regression: bool,
         k: int,
@@ -46,9 +60,11 @@ class Branch(nn.Module):
     ) -> None:
         super().__init__()
         dgcnn = DGCNN if fast else DGCNNReference
-        self.points = dgcnn(k=k, channels=edge_channels, out_channels=point_channels)
-        self.sketch = VGGSketchEncoder(sketch_channels, out_dim=2 * point_channels, pool_size=sketch_pool)
-        keys = MODALITIES if separate else ("shared",)
+        if "points" in modalities:
+            self.points = dgcnn(k=k, channels=edge_channels, out_channels=point_channels)
+        if "sketch" in modalities:
+            self.sketch = VGGSketchEncoder(sketch_channels, out_dim=2 * point_channels, pool_size=sketch_pool)
+        keys = modalities if separate else ("shared",)
         self.decoders = nn.ModuleDict(
             {key: Decoders(specs, 2 * point_channels, hidden, dropout, regression) for key in keys}
         )
@@ -58,10 +74,9 @@ class Branch(nn.Module):
 
     def forward(self, points=None, sketches=None) -> dict[str, dict[str, torch.Tensor]]:
         out = {}
-        if points is not None:
-            out["points"] = self.decoder("points")(self.points(points))
-        if sketches is not None:
-            out["sketch"] = self.decoder("sketch")(self.sketch(sketches))
+        for modality, inputs in (("points", points), ("sketch", sketches)):
+            if inputs is not None:
+                out[modality] = self.decoder(modality)(getattr(self, modality)(inputs))
         return out
 
 
@@ -82,7 +97,8 @@ def branch_layout(variant: str, specs: Sequence[Mapping]) -> list[tuple[list[dic
 
 
 class GeoCodeModule(pl.LightningModule):
-    """Point clouds and sketches -> one class per program parameter.
+    """Point clouds and sketches (the `modalities` the variant takes) -> one class per
+    program parameter.
 
     loss = sum_params CE(decoder(DGCNN(points))) + sum_params CE(decoder(VGG(sketch)))
     (MSE for regressed parameters). Adam + StepLR, as in the paper.
@@ -105,19 +121,22 @@ class GeoCodeModule(pl.LightningModule):
         lr: float = 1e-2,
         step_size: int = 20,
         gamma: float = 0.9,
+        modalities: Sequence[str] = MODALITIES,
     ) -> None:
         super().__init__()
         heads = [dict(h) for h in heads]
+        modalities = variant_modalities(variant, modalities)
         self.save_hyperparameters(
             {"heads": heads, "variant": variant, "k": k, "edge_channels": list(edge_channels),
              "point_channels": point_channels, "sketch_channels": list(sketch_channels),
              "sketch_pool": sketch_pool, "hidden": list(hidden), "dropout": dropout, "fast": fast,
-             "lr": lr, "step_size": step_size, "gamma": gamma}
+             "lr": lr, "step_size": step_size, "gamma": gamma, "modalities": modalities}
         )
+        self.modalities = modalities
         self.parameter_names = [h["name"] for h in heads]
         self.columns = {name: j for j, name in enumerate(self.parameter_names)}
         self.branches = nn.ModuleList(
-            Branch(group, sep, reg, k, edge_channels, point_channels, sketch_channels, sketch_pool,
+            Branch(group, modalities, sep, reg, k, edge_channels, point_channels, sketch_channels, sketch_pool,
                    hidden, dropout, fast)
             for group, sep, reg in branch_layout(variant, heads)
         )
@@ -126,6 +145,10 @@ class GeoCodeModule(pl.LightningModule):
 
     def forward(self, points=None, sketches=None) -> dict[str, dict[str, torch.Tensor]]:
         """{modality: {parameter: head output}} over all branches."""
+        for modality, inputs in (("points", points), ("sketch", sketches)):
+            if inputs is not None and modality not in self.modalities:
+                raise ValueError(f"a {self.hparams.variant} model takes no {modality} input "
+                                 f"(its modalities: {', '.join(self.modalities)})")
         out: dict[str, dict[str, torch.Tensor]] = {}
         for branch in self.branches:
             for modality, heads in branch(points, sketches).items():
@@ -152,7 +175,8 @@ class GeoCodeModule(pl.LightningModule):
 
     def _step(self, batch: Mapping[str, torch.Tensor], stage: str) -> torch.Tensor:
         labels = batch["labels"]  # (B, P)
-        outputs = self(batch.get("points"), batch.get("sketch"))
+        inputs = {m: batch.get(m) if m in self.modalities else None for m in MODALITIES}
+        outputs = self(inputs["points"], inputs["sketch"])
         size = labels.shape[0]
         total = 0.0
         accs = []
