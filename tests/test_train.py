@@ -13,17 +13,37 @@ from geocode.train import CheckpointError, load_model, predict, predict_classes,
 
 
 @pytest.fixture(scope="module")
-def run(tmp_path_factory):
-    """A one-epoch run of the joint model; returns (cfg, result)."""
+def toy_config(tmp_path_factory):
+    """compose(overrides) for the smoke profile on the synthetic dataset."""
     root = tmp_path_factory.mktemp("train")
     data, build, recipe_path = make_dataset(root)
-    cfg = compose([
+    base = [
         "profile=smoke", f"paths.data={data}", f"paths.build={build}", f"paths.runs={root / 'runs'}",
         f"domain.name={DOMAIN}", f"domain.recipe={recipe_path}", f"data.points.train_random={N_PICK}",
         "train.max_epochs=1", "train.batch_size=4", "train.accelerator=cpu", "train.devices=1",
-    ])
+    ]
+    return lambda *overrides: compose([*base, *overrides])
+
+
+@pytest.fixture(scope="module")
+def run(toy_config):
+    """A one-epoch run of the joint model; returns (cfg, result)."""
+    cfg = toy_config()
     assert [c.name for c in cfg.data.sketch.cameras if c.train] == CAMERAS
     return cfg, train(cfg)
+
+
+@pytest.mark.parametrize("variant", ["separate", "regression", "huang"])
+def test_each_model_config_trains_a_smoke_epoch(toy_config, variant):
+    """Each experiment's config composes and trains; its share of train.max_epochs applies."""
+    cfg = toy_config(f"model={variant}", "train.max_epochs=2", f"train.variant_epochs.{variant}=0.5",
+                     "train.limit_train_batches=1")
+    result = train(cfg)
+    assert result["out_dir"].endswith(f"{DOMAIN}/{variant}") and result["epochs"] == 1
+    model = load_model(result["best"])
+    assert model.hparams.variant == variant
+    points = any(name.startswith("branches.0.points") for name in model.state_dict())
+    assert points == (variant != "huang")
 
 
 def test_one_epoch_writes_checkpoints_and_logs(run):
