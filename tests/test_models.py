@@ -303,3 +303,5 @@ def test_bench_epoch_counts_the_steps_of_an_epoch():
     out = bench_epoch(clouds=5, sketches=10, batch=2, device="cpu", n_points=64, n_heads=3)
     assert out["steps"] == 3 and out["clouds"] == 6 and out["sketches"] == 12
     assert out["epoch_s"] > 0 and out["device"] == "cpu"
+    huang = bench_epoch(clouds=5, sketches=10, batch=2, device="cpu", n_points=64, n_heads=3, variant="huang")
+    assert huang["clouds"] == 0 and huang["sketches"] == 12

@@ -54,6 +54,16 @@ def test_paper_profile_plans_the_whole_dag(tmp_path):
         assert f"rule {rule}:" in out or f"{rule} " in out, rule
 
 
+def test_default_run_plans_huang_everywhere_and_the_chair_ablations(tmp_path):
+    out = snakemake(tmp_path, "-n", "results/tables", "--config", "domains=[vase,chair]").stdout
+    for run in ("vase/joint", "vase/huang", "chair/joint", "chair/huang", "chair/regression", "chair/separate"):
+        assert f"runs/mini/{run}/eval/metrics.parquet" in out, run
+    assert "runs/mini/vase/regression" not in out and "runs/mini/vase/separate" not in out
+    bad = snakemake(tmp_path, "-n", "results/tables", "--config", "eval={variants: [joint, hwang]}", check=False)
+    assert bad.returncode != 0
+    assert "eval.variants: no model variant 'hwang'; use one of huang, joint, regression, separate" in bad.stdout + bad.stderr
+
+
 def test_bad_config_stops_before_any_job_with_one_line(tmp_path):
     result = snakemake(tmp_path, "-n", "results/tables", "--config", "data={shards: 0}", check=False)
     assert result.returncode != 0

@@ -84,6 +84,8 @@ def parser() -> argparse.ArgumentParser:
     c.add_argument("--clouds", type=int, default=9330, help="epoch: clouds per epoch (paper-scale vase)")
     c.add_argument("--sketches", type=int, default=18660, help="epoch: sketches per epoch")
     c.add_argument("--device", default="auto", help="epoch: auto (a GPU where there is one), cpu or cuda")
+    c.add_argument("--variant", default="joint", help="epoch: the model variant (joint, separate, regression, huang)")
+    c.add_argument("--points", type=int, default=2300, help="epoch: points per cloud")
     c.add_argument("--json", action="store_true")
     c.set_defaults(run=cmd_bench)
 
@@ -211,7 +213,7 @@ def cmd_bench(args):
     if args.stage == "epoch":
         from geocode.models.bench import bench_epoch
 
-        return bench_epoch(args.clouds, args.sketches, device=args.device)
+        return bench_epoch(args.clouds, args.sketches, device=args.device, n_points=args.points, variant=args.variant)
     from geocode.evaluation import bench_eval
 
     return bench_eval(args.domain)

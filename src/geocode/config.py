@@ -60,8 +60,7 @@ def validate(cfg: DictConfig) -> None:
     if not pts.fps <= pts.surface or not pts.train_random <= pts.random:
         raise ConfigError("data.points: need fps <= surface and train_random <= random")
     models = sorted(p.stem for p in (repo_root() / "conf" / "model").glob("*.yaml"))
-    lists = {"eval.variants": cfg.eval.variants, **{f"eval.ablations.{d}": v for d, v in cfg.eval.ablations.items()}}
-    for key, names in lists.items():
+    for key, names in (("eval.variants", cfg.eval.variants), ("eval.ablations", cfg.eval.ablations)):
         if unknown := [v for v in names if v not in models]:
             raise ConfigError(f"{key}: no model variant {unknown[0]!r}; use one of {', '.join(models)}")
     names = [c.name for c in cfg.data.sketch.cameras]
@@ -83,8 +82,10 @@ def domains(cfg: DictConfig) -> list[str]:
 
 
 def variants(cfg: DictConfig, domain: str) -> list[str]:
-    """The model variants trained for a domain: eval.variants, then its eval.ablations."""
-    return list(dict.fromkeys([*cfg.eval.variants, *cfg.eval.get("ablations", {}).get(domain, [])]))
+    """The model variants trained for a domain: eval.variants, and eval.ablations where the
+    domain is one of eval.ablation_domains."""
+    ablations = cfg.eval.ablations if domain in cfg.eval.ablation_domains else []
+    return list(dict.fromkeys([*cfg.eval.variants, *ablations]))
 
 
 def data_dir(cfg: DictConfig, domain: str, split: str) -> Path:
