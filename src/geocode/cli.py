@@ -305,12 +305,14 @@ def cmd_metrics(args):
 def cmd_tables(args):
     import pandas as pd
 
-    from geocode.config import config_hash
+    from geocode.config import config_hash, max_epochs
     from geocode.tables import write_tables
 
     cfg = step_config(args)
     metrics = pd.concat([pd.read_parquet(p) for p in args.metrics], ignore_index=True)
-    header = f"profile {cfg.profile_name}, config {config_hash(cfg)}, {metrics.id.nunique()} test shapes"
+    epochs = ", ".join(f"{v} {max_epochs(cfg, v)}" for v in sorted(metrics.variant.unique()))
+    header = (f"profile {cfg.profile_name}, config {config_hash(cfg)}, {metrics.id.nunique()} test shapes; "
+              f"max epochs: {epochs}")
     cameras = [dict(c) for c in cfg.data.sketch.cameras]
     names = write_tables(metrics, cameras, args.output, header)
     return f"wrote {len(names)} tables to {args.output}: {', '.join(names)}"

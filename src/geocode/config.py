@@ -88,5 +88,12 @@ def variants(cfg: DictConfig, domain: str) -> list[str]:
     return list(dict.fromkeys([*cfg.eval.variants, *ablations]))
 
 
+def max_epochs(cfg: DictConfig, variant: str) -> int:
+    """train.max_epochs times the variant's share in train.variant_epochs (baselines and
+    ablations trained beside the joint model on a smaller budget)."""
+    share = float(cfg.train.variant_epochs.get(variant, 1.0))
+    return max(1, round(int(cfg.train.max_epochs) * share))
+
+
 def data_dir(cfg: DictConfig, domain: str, split: str) -> Path:
     return Path(cfg.paths.data) / domain / split

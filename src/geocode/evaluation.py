@@ -19,7 +19,7 @@ from omegaconf import DictConfig
 
 from geocode.config import data_dir
 from geocode.meshio import normalise_unit_sphere, read_obj, write_obj, write_parquet, write_text
-from geocode.variations import load_recipes, save_recipes
+from geocode.variations import load_recipes, save_recipes, spread_subset
 
 log = logging.getLogger("geocode.evaluation")
 
@@ -61,9 +61,10 @@ def conditions(cfg: DictConfig, modalities=("pc", "sketch"), full: bool = True) 
 
 
 def test_ids(cfg: DictConfig, domain: str) -> list[str]:
-    ids = load_recipes(data_dir(cfg, domain, "test") / "recipes.parquet")["id"].tolist()
-    keep = cfg.eval.max_test_shapes
-    return ids if keep is None else ids[:keep]
+    """The evaluated test shapes: at most eval.max_test_shapes, evenly spread over the split
+    (so that every forced parameter class shows up), the same for every model variant."""
+    recipes = load_recipes(data_dir(cfg, domain, "test") / "recipes.parquet")
+    return spread_subset(recipes, cfg.eval.max_test_shapes)["id"].tolist()
 
 
 def id_seed(seed: int, *keys) -> np.random.Generator:

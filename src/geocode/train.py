@@ -19,6 +19,7 @@ import pytorch_lightning as pl
 import torch
 from omegaconf import DictConfig, OmegaConf
 
+from geocode.config import max_epochs
 from geocode.models.bench import bench_train
 from geocode.models.module import GeoCodeModule
 from geocode.recipe import load_recipe
@@ -40,23 +41,16 @@ def camera_names(cfg: DictConfig) -> list[str]:
     return [str(c.name) for c in cfg.data.sketch.cameras if c.get("train", False)]
 
 
+def variant(cfg: DictConfig) -> str:
+    return str(cfg.model.get("variant", "joint"))
+
+
 def run_dir(cfg: DictConfig, out_dir: str | Path | None) -> Path:
     if out_dir is not None:
         return Path(out_dir)
     if cfg.train.get("out_dir"):
         return Path(cfg.train.out_dir)
     return Path(cfg.paths.runs) / cfg.domain.name / variant(cfg)
-
-
-def variant(cfg: DictConfig) -> str:
-    return str(cfg.model.get("variant", "joint"))
-
-
-def max_epochs(cfg: DictConfig) -> int:
-    """train.max_epochs times the variant's share in train.variant_epochs (baselines and
-    ablations trained beside the joint model on a smaller budget; 1 where not listed)."""
-    share = float((cfg.train.get("variant_epochs") or {}).get(variant(cfg), 1.0))
-    return max(1, round(int(cfg.train.max_epochs) * share))
 
 
 def build_model(cfg: DictConfig, recipe) -> GeoCodeModule:
@@ -127,7 +121,7 @@ def train(cfg: DictConfig, out_dir: str | Path | None = None) -> dict:
                               save_last=True, enable_version_counter=False)
     progress = t.get("progress_bar")
     trainer = pl.Trainer(
-        max_epochs=max_epochs(cfg),
+        max_epochs=max_epochs(cfg, variant(cfg)),
         accelerator=t.get("accelerator", "auto"),
         devices=t.get("devices", "auto"),
         deterministic=t.get("deterministic", False),
