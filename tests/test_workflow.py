@@ -106,6 +106,11 @@ def test_smoke_run_reaches_the_tables(smoke_run):
     for name in ("camera_angles", "simplified", "sparse", "noise", "stability"):
         assert (tables / f"{name}.md").exists(), name
     assert "profile smoke" in (tables / "pc_vs_sketch.md").read_text()
+    huang = pd.read_csv(tables / "vs_huang.csv", comment="#", index_col=0)    # the smoke run trains huang too
+    assert list(huang.index) == ["vase Huang et al. 2017", "vase ours"]
+    assert huang.loc["vase ours", "novel camera n"] == 4 and 0 <= huang.loc["vase ours", "novel camera p"] <= 1
+    predictions = pd.read_parquet(smoke_run / "runs" / "smoke" / "vase" / "huang" / "eval" / "predictions.parquet")
+    assert set(predictions.modality) == {"sketch"} and set(predictions.source) == {"test"}   # clean sketches only
 
 
 def test_interrupted_dataset_run_resumes_to_identical_outputs(smoke_run, tmp_path):

@@ -218,36 +218,20 @@ def stability(m: pd.DataFrame, trained: list[str]) -> Cells:
     return out
 
 
-def vs_huang(m: pd.DataFrame, trained: list[str], novel: list[str]) -> tuple[Cells, dict[str, str]]:
-    """Sketches of ours (the joint model) and of Huang et al. 2017, trained and novel
-    cameras, in the domains that trained both; ours is compared against Huang et al."""
-    sketches = _clean(m[m.modality == "sketch"])
-    out, against = {}, {}
-    for domain, d in sketches.groupby("domain"):
-        if not {"joint", "huang"} <= set(d.variant):
-            continue
-        for variant, row in (("joint", f"{domain} ours"), ("huang", f"{domain} Huang et al. 2017")):
-            v = d[d.variant == variant]
-            out[(row, "trained cameras")] = per_shape(_trained(v, trained))
-            out[(row, "novel camera")] = per_shape(_trained(v, novel))
-        against[f"{domain} ours"] = f"{domain} Huang et al. 2017"
-    return out, against
-
-
-def against_joint(m: pd.DataFrame, trained: list[str], variant: str, names: tuple[str, str]) -> tuple[Cells, dict]:
-    """Clean point clouds and sketches (trained cameras) of the joint model and of one
-    ablation `variant`, in the domains that trained both; the ablation is compared against
-    the joint model. names: the row labels of (joint, variant)."""
-    clean = _clean(m[m.modality.isin(["pc", "sketch"])])
+def comparison(m: pd.DataFrame, variants: tuple[str, str], labels: tuple[str, str],
+               columns: dict[str, Callable[[pd.DataFrame], pd.DataFrame]]) -> tuple[Cells, dict[str, str]]:
+    """Two variants on clean inputs, in the domains that trained both: a row per variant
+    (`labels`), a column per input selector of `columns`; the second row is compared
+    against the first (the reference)."""
+    clean = _clean(m)
     out, against = {}, {}
     for domain, d in clean.groupby("domain"):
-        if not {"joint", variant} <= set(d.variant):
+        if not set(variants) <= set(d.variant):
             continue
-        for v, name in zip(("joint", variant), names, strict=True):
-            g = d[d.variant == v]
-            out[(f"{domain} {name}", "pc")] = per_shape(g[g.modality == "pc"])
-            out[(f"{domain} {name}", "sketch")] = per_shape(_trained(g[g.modality == "sketch"], trained))
-        against[f"{domain} {names[1]}"] = f"{domain} {names[0]}"
+        for variant, label in zip(variants, labels, strict=True):
+            for column, pick in columns.items():
+                out[(f"{domain} {label}", column)] = per_shape(pick(d[d.variant == variant]))
+        against[f"{domain} {labels[1]}"] = f"{domain} {labels[0]}"
     return out, against
 
 
@@ -335,6 +319,8 @@ def build_tables(metrics: pd.DataFrame, cameras: list[dict]) -> dict[str, pd.Dat
     """Every table the metrics allow; a table with no rows is left out."""
     trained = [c["name"] for c in cameras if c["train"]]
     novel = [c["name"] for c in cameras if not c["train"]]
+    sketches = lambda cams: lambda g: _trained(g[g.modality == "sketch"], cams)  # noqa: E731
+    pc_and_sketch = {"pc": lambda g: g[g.modality == "pc"], "sketch": sketches(trained)}
     makers: dict[str, Callable[[], Cells | tuple[Cells, dict]]] = {
         "pc_vs_sketch": lambda: pc_vs_sketch(metrics, trained),
         "camera_angles": lambda: camera_angles(metrics, trained, novel),
@@ -342,9 +328,12 @@ def build_tables(metrics: pd.DataFrame, cameras: list[dict]) -> dict[str, pd.Dat
         "sparse": lambda: sparse(metrics),
         "noise": lambda: noise(metrics),
         "stability": lambda: stability(metrics, trained),
-        "vs_huang": lambda: vs_huang(metrics, trained, novel),
-        "cls_vs_reg": lambda: against_joint(metrics, trained, "regression", ("classification (ours)", "regression")),
-        "joint_vs_separate": lambda: against_joint(metrics, trained, "separate", ("joint (ours)", "separate")),
+        "vs_huang": lambda: comparison(metrics, ("huang", "joint"), ("Huang et al. 2017", "ours"),
+                                       {"trained cameras": sketches(trained), "novel camera": sketches(novel)}),
+        "cls_vs_reg": lambda: comparison(metrics, ("joint", "regression"), ("classification (ours)", "regression"),
+                                         pc_and_sketch),
+        "joint_vs_separate": lambda: comparison(metrics, ("joint", "separate"), ("joint (ours)", "separate"),
+                                                pc_and_sketch),
     }
     tables = {}
     for name, make in makers.items():
