@@ -136,15 +136,15 @@ def bootstrap_ci(values, resamples: int = BOOTSTRAP, seed: int = 0) -> tuple[flo
     return float(low), float(high)
 
 
-def wilcoxon_p(a: pd.Series, b: pd.Series) -> tuple[float, int]:
-    """Two-sided paired Wilcoxon signed-rank p-value of a against b over the shapes both
-    have, and that number of shapes (p = 1 where every difference is zero)."""
+def wilcoxon_p(a: pd.Series, b: pd.Series) -> float:
+    """Two-sided paired Wilcoxon signed-rank p-value of a against b over the shapes (index)
+    both have; 1 where every difference is zero, NaN where none is shared."""
     a, b = a.align(b, join="inner")
     if not len(a):
-        return np.nan, 0
-    if np.allclose(a.to_numpy(), b.to_numpy(), rtol=0, atol=0):
-        return 1.0, len(a)
-    return float(stats.wilcoxon(a.to_numpy(), b.to_numpy()).pvalue), len(a)
+        return np.nan
+    if (a == b).all():
+        return 1.0
+    return float(stats.wilcoxon(a.to_numpy(), b.to_numpy()).pvalue)
 
 
 def per_shape(frame: pd.DataFrame, column: str = "chamfer") -> pd.Series:
@@ -257,7 +257,7 @@ def to_frame(name: str, cells: Cells, against: dict[str, str] | None = None) -> 
         frame[f"{c} CI high"] = [high for _, high in ci]
         frame[f"{c} n"] = [len(v) for v in values]
         if against is not None:
-            frame[f"{c} p"] = [wilcoxon_p(cells.get((r, c), empty), cells.get((against[r], c), empty))[0]
+            frame[f"{c} p"] = [wilcoxon_p(cells.get((r, c), empty), cells.get((against[r], c), empty))
                                if r in against else np.nan for r in rows]
         frame[f"{c} (paper)"] = [paper.get((r, c), np.nan) for r in rows]
     return frame
