@@ -8,7 +8,7 @@ import pytest
 import torch
 from test_training_data import CAMERAS, DOMAIN, N_FPS, N_PICK, make_dataset
 
-from geocode.config import compose
+from geocode.config import PROGRAMS_ENV, compose
 from geocode.train import CheckpointError, load_model, predict, predict_classes, train
 
 
@@ -17,12 +17,15 @@ def toy_config(tmp_path_factory):
     """compose(overrides) for the smoke profile on the synthetic dataset."""
     root = tmp_path_factory.mktemp("train")
     data, build, recipe_path = make_dataset(root)
+    recipe_path.with_suffix(".py").write_text("")  # registers the domain; training never runs it
     base = [
         "profile=smoke", f"paths.data={data}", f"paths.build={build}", f"paths.runs={root / 'runs'}",
-        f"domain.name={DOMAIN}", f"domain.recipe={recipe_path}", f"data.points.train_random={N_PICK}",
+        f"domain={DOMAIN}", f"data.points.train_random={N_PICK}",
         "train.max_epochs=1", "train.batch_size=4", "train.accelerator=cpu", "train.devices=1",
     ]
-    return lambda *overrides: compose([*base, *overrides])
+    with pytest.MonkeyPatch.context() as env:
+        env.setenv(PROGRAMS_ENV, str(recipe_path.parent))
+        yield lambda *overrides: compose([*base, *overrides])
 
 
 @pytest.fixture(scope="module")

@@ -1,5 +1,5 @@
-"""Per-sample metrics -> the paper's tables as CSV, Markdown and LaTeX, with the paper's
-values beside ours (no bpy, no torch).
+"""Per-sample metrics -> the paper's tables (docs/paper-numbers.md#tables) as CSV, Markdown
+and LaTeX, with the paper's values beside ours (no bpy, no torch).
 
 The metrics frame has one row per (domain, variant, condition, id) with the columns
 `modality` (pc | sketch | gt | baseline), `source` (test | s10 | s100: the test meshes or
@@ -25,7 +25,7 @@ from geocode.meshio import write_text
 
 DOMAIN_ORDER = ["chair", "vase", "table", "ceiling_lamp", "cabinet"]
 
-# The paper's values (its tables and supplementary), keyed by table, then by (row, column).
+# The paper's values (docs/paper-numbers.md#tables), keyed by table, then by (row, column).
 PAPER: dict[str, dict[tuple[str, str], float]] = {
     "pc_vs_sketch": {
         ("chair", "pc"): 0.00040, ("chair", "sketch"): 0.00106,
