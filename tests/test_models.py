@@ -1,5 +1,7 @@
 """Encoders, decoders, losses, the fast/reference DGCNN equivalence, and every model config."""
 
+import math
+
 import pytest
 import torch
 import torch.nn.functional as F
@@ -227,9 +229,51 @@ def test_variants_train_step_and_predict(variant):
     loss.backward()
     assert torch.isfinite(loss) and loss.item() > 0
     assert all(p.grad is not None for p in model.parameters() if p.requires_grad)
-    pred = model.eval().predict_classes(points=batch["points"][:1], sketches=batch["sketch"][:1])
-    assert pred["points"].shape == (1, 3) and pred["sketch"].shape == (1, 3)
-    assert (pred["points"][0] < torch.tensor([5, 3, 4])).all()
+    pred = model.eval().predict_classes(sketches=batch["sketch"][:1])
+    assert pred["sketch"].shape == (1, 3) and (pred["sketch"][0] < torch.tensor([5, 3, 4])).all()
+    if variant != "huang":
+        assert model.predict_classes(points=batch["points"][:1])["points"].shape == (1, 3)
+
+
+def test_huang_reads_sketches_only_with_two_networks():
+    model = GeoCodeModule(HEADS, variant="huang")
+    assert model.modalities == ["sketch"]
+    assert not any(isinstance(m, (DGCNN, DGCNNReference)) for m in model.modules())
+    discrete, continuous = model.branches
+    assert [s["name"] for s in discrete.decoder("sketch").specs] == ["count"]
+    assert [s["name"] for s in continuous.decoder("sketch").specs] == ["size", "width"]
+    assert discrete.sketch is not continuous.sketch                      # an encoder each
+    assert continuous.decoder("sketch").modes == {"size": "reg", "width": "reg"}
+    with pytest.raises(ValueError, match="huang model takes no points input"):
+        model(points=torch.randn(2, 60, 3))
+    with pytest.raises(ValueError, match="takes sketch"):
+        GeoCodeModule(HEADS, variant="huang", modalities=["points"])
+    assert GeoCodeModule(HEADS, modalities=["points"]).modalities == ["points"]
+
+
+# Head outputs for HEADS whose losses are worked out by hand: zero logits cost ln(classes);
+# the regression heads predict size 0.5 (label 2 of 4 values: 2/3), visible (0), and width
+# 0.0 (label 3 of 4 values: 1.0).
+LABELS = torch.tensor([[2, 1, 3]])
+ZERO_LOGITS = {"size": torch.zeros(1, 5), "count": torch.zeros(1, 3), "width": torch.zeros(1, 4)}
+REGRESSED = {"size": torch.tensor([[0.5, 0.0]]), "count": torch.zeros(1, 3), "width": torch.tensor([[0.0]])}
+CLASSIFIED_LOSS = math.log(5) + math.log(3) + math.log(4)
+REGRESSED_LOSS = (0.5 - 2 / 3) ** 2 + math.log(3) + 1.0
+
+
+@pytest.mark.parametrize(("variant", "outputs", "expected"), [
+    ("joint", ZERO_LOGITS, CLASSIFIED_LOSS),
+    ("separate", ZERO_LOGITS, CLASSIFIED_LOSS),
+    ("regression", REGRESSED, REGRESSED_LOSS),
+    ("huang", REGRESSED, REGRESSED_LOSS),
+])
+def test_variant_loss_on_a_hand_computed_example(variant, outputs, expected):
+    model = GeoCodeModule(HEADS, variant=variant)
+    for modality in model.modalities:
+        assert model._loss(outputs, LABELS, modality).item() == pytest.approx(expected, rel=1e-6)
+    if variant == "separate":
+        branch = model.branches[0]
+        assert branch.decoder("points") is not branch.decoder("sketch")
 
 
 @pytest.mark.parametrize("variant", VARIANTS)
@@ -248,12 +292,14 @@ def test_shared_decoders_keep_the_statistics_of_both_modalities_together(variant
             head[1].momentum = 1.0  # running mean = the last batch's mean
             head[0].register_forward_hook(lambda m, i, out, key=(b, key), bn=head[1]:
                                           seen.setdefault(key, []).append((out, bn)))
+    points = torch.randn(5, 60, 3) if "points" in model.modalities else None  # huang: sketches only
     with torch.no_grad():
-        model(torch.randn(5, 60, 3), torch.rand(3, 1, 64, 64))
+        model(points, torch.rand(3, 1, 64, 64))
+    sizes = {"points": 0 if points is None else 5, "sketch": 3}
     for (_, key), calls in seen.items():
         assert len(calls) == 1, key  # one call per forward: both modalities, or one if separate
         out, bn = calls[0]
-        assert len(out) == {"common": 8, "points": 5, "sketch": 3}[key]
+        assert len(out) == {"common": sum(sizes.values()), **sizes}[key]
         torch.testing.assert_close(bn.running_mean, out.mean(dim=0))
 
 
@@ -295,3 +341,5 @@ def test_bench_epoch_counts_the_steps_of_an_epoch():
     out = bench_epoch(clouds=5, sketches=10, batch=2, device="cpu", n_points=64, n_heads=3)
     assert out["steps"] == 3 and out["clouds"] == 6 and out["sketches"] == 12
     assert out["epoch_s"] > 0 and out["device"] == "cpu"
+    huang = bench_epoch(clouds=5, sketches=10, batch=2, device="cpu", n_points=64, n_heads=3, variant="huang")
+    assert huang["clouds"] == 0 and huang["sketches"] == 12

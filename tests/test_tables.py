@@ -2,8 +2,9 @@
 
 import numpy as np
 import pandas as pd
+import pytest
 
-from geocode.tables import build_tables, write_tables
+from geocode.tables import STAT_SUFFIXES, bootstrap_ci, build_tables, wilcoxon_p, write_tables
 
 CAMERAS = [{"name": "az35", "train": True}, {"name": "az55", "train": True}, {"name": "az15", "train": False}]
 
@@ -40,7 +41,6 @@ def test_tables_hold_the_means_beside_the_paper():
     assert tables["simplified"].loc["vase pc", "1/10"] == 0.0015
     s = tables["stability"]
     assert s.loc["vase", "GT"] == 100.0 and s.loc["vase", "PC pred"] == 50.0
-    assert "ablations" not in tables                           # one variant: nothing to compare
 
 
 def test_write_tables_writes_every_format_and_an_index(tmp_path):
@@ -56,14 +56,99 @@ def test_write_tables_writes_every_format_and_an_index(tmp_path):
     assert not list(tmp_path.glob(".*tmp"))                    # no temporary files left
 
 
-def test_ablations_compare_the_variants_that_were_trained():
-    rows = [row("pc", 0.001), row("sketch", 0.002, camera="az35"),
-            row("pc", 0.004, variant="regression"), row("sketch", 0.006, camera="az55", variant="regression"),
-            row("sketch", 0.5, camera="az15", variant="regression")]          # novel camera: not counted
-    table = build_tables(pd.DataFrame(rows), CAMERAS)["ablations"]
-    assert table.loc["vase joint (cls)", "pc"] == 0.001
-    assert table.loc["vase regression", "sketch"] == 0.006
-    assert np.isnan(table.loc["vase regression", "pc (paper)"])             # the paper's rows are the chair's
+def test_columns_follow_the_paper_and_every_mean_has_its_interval_and_count():
+    extra = [row("sketch", 0.020, camera="az15", i=1), row("sketch", 0.006, camera="az35", i=1),
+             row("pc", 0.004, source="s100"), row("pc", 0.006, sparse=2048), row("pc", 0.009, noise=0.05)]
+    tables = build_tables(pd.concat([metrics(), pd.DataFrame(extra)]), CAMERAS)
+    assert list(tables["camera_angles"].columns[:5]) == ["angle 1", "angle 1 CI low", "angle 1 CI high", "angle 1 n",
+                                                         "angle 1 (paper)"]
+    means = lambda t: [c for c in t.columns if not c.endswith(STAT_SUFFIXES)]  # noqa: E731
+    assert means(tables["camera_angles"]) == ["angle 1", "angle 2", "novel"]
+    assert means(tables["simplified"]) == ["full", "1/10", "1/100"]
+    assert means(tables["sparse"]) == ["2048", "512"]
+    assert means(tables["noise"]) == ["0", "0.02", "0.05"]
+    angles = tables["camera_angles"].loc["vase"]
+    assert angles["novel"] == pytest.approx(0.015) and angles["novel n"] == 2
+    assert angles["novel CI low"] == pytest.approx(0.010) and angles["novel CI high"] == pytest.approx(0.020)
+    # two cameras of one shape are one sample: its mean
+    assert tables["pc_vs_sketch"].loc["vase", "sketch n"] == 2
+
+
+def test_bootstrap_interval_of_a_known_sample():
+    assert bootstrap_ci([0.3] * 50) == (pytest.approx(0.3), pytest.approx(0.3))
+    coin = np.array([0.0, 1.0] * 200)                        # mean 0.5, standard error 0.025
+    low, high = bootstrap_ci(coin)
+    assert low == pytest.approx(0.5 - 1.96 * 0.025, abs=0.006) and high == pytest.approx(0.5 + 1.96 * 0.025, abs=0.006)
+    assert bootstrap_ci(coin) == (low, high)                 # seeded
+    skewed = np.r_[np.zeros(90), np.full(10, 10.0)]           # the percentile interval follows the skew
+    low, high = bootstrap_ci(skewed)
+    assert 0.0 < low < 1.0 < high and high - 1.0 > 1.0 - low
+
+
+def test_wilcoxon_p_of_known_pairs():
+    ids = [f"test-{i:06d}" for i in range(10)]
+    a = pd.Series(np.arange(1.0, 11.0), index=ids)
+    # every one of 10 differences positive: the exact two-sided p is 2 / 2**10
+    assert wilcoxon_p(a * 1.5, a) == pytest.approx(2 / 2**10)
+    # rank sums of the positive and negative differences equal (1 + 4 = 2 + 3): p = 1
+    d = pd.Series([1.0, -2.0, -3.0, 4.0], index=ids[:4])
+    assert wilcoxon_p(a[:4] + d, a[:4]) == pytest.approx(1.0)
+    assert wilcoxon_p(a, a) == 1.0
+    # only the 3 shapes both have are paired
+    assert wilcoxon_p(a[:6] * 2, a[3:]) == pytest.approx(2 / 2**3)
+    assert np.isnan(wilcoxon_p(a[:3], a[5:]))
+
+
+def comparison_metrics(n=12):
+    """Joint, Huang et al. and the ablations on n shapes; the joint model is better on every
+    shape, by differences that grow with the shape's index (no ties: scipy's exact test)."""
+    rows = []
+    for i in range(n):
+        for variant, extra in (("joint", 0.0), ("huang", 0.002), ("regression", 0.003), ("separate", 0.0)):
+            if variant != "huang":
+                rows.append(row("pc", 0.001 + extra * (1 + i / 50) + i * 1e-4, variant=variant, i=i))
+            for cam, base in (("az35", 0.002), ("az55", 0.004), ("az15", 0.010)):
+                rows.append(row("sketch", base + extra * (1 + i / 50) + i * 1e-4, camera=cam, variant=variant, i=i))
+    return pd.DataFrame(rows)
+
+
+def test_vs_huang_compares_sketches_of_trained_and_novel_cameras():
+    t = build_tables(comparison_metrics(), CAMERAS)["vs_huang"]
+    assert list(t.index) == ["vase Huang et al. 2017", "vase ours"]
+    assert [c for c in t.columns if not c.endswith(STAT_SUFFIXES)] == ["trained cameras", "novel camera"]
+    assert t.loc["vase ours", "trained cameras"] == pytest.approx(0.003 + 5.5e-4)
+    assert t.loc["vase Huang et al. 2017", "novel camera"] == pytest.approx(0.010 + 0.002 * 1.11 + 5.5e-4)
+    assert t.loc["vase ours", "trained cameras n"] == 12
+    assert t.loc["vase ours", "trained cameras p"] == pytest.approx(2 / 2**12)  # better on all 12
+    assert np.isnan(t.loc["vase Huang et al. 2017", "trained cameras p"])        # the reference row
+    assert t.loc["vase ours", "trained cameras (paper)"] == 4.875e-3
+
+
+def test_ablations_compare_each_variant_with_the_joint_model():
+    tables = build_tables(comparison_metrics(), CAMERAS)
+    reg = tables["cls_vs_reg"]
+    assert list(reg.index) == ["vase classification (ours)", "vase regression"]
+    assert reg.loc["vase regression", "pc"] == pytest.approx(0.001 + 0.003 * 1.11 + 5.5e-4)
+    assert reg.loc["vase regression", "sketch"] == pytest.approx(0.003 + 0.003 * 1.11 + 5.5e-4)  # trained cameras
+    assert reg.loc["vase regression", "pc p"] == pytest.approx(2 / 2**12)
+    assert np.isnan(reg.loc["vase regression", "pc (paper)"])                   # the paper's rows are the chair's
+    sep = tables["joint_vs_separate"]
+    assert sep.loc["vase separate", "sketch p"] == 1.0                          # the same distances
+    assert "pc_vs_sketch" in tables and tables["pc_vs_sketch"].loc["vase", "pc"] == pytest.approx(0.001 + 5.5e-4)
+
+
+def test_one_variant_makes_no_comparison_tables():
+    tables = build_tables(metrics(), CAMERAS)
+    assert not {"vs_huang", "cls_vs_reg", "joint_vs_separate"} & set(tables)
+
+
+def test_markdown_shows_intervals_counts_and_p_values(tmp_path):
+    write_tables(comparison_metrics(), CAMERAS, tmp_path, "profile smoke")
+    text = (tmp_path / "vs_huang.md").read_text()
+    assert "| | trained cameras | trained cameras n | trained cameras p | trained cameras (paper) |" in text
+    assert "| vase ours | 0.00355 [" in text and "| 12 | 0.00049 |" in text
+    assert "no pretrained weights" in text
+    assert "0.00049" in (tmp_path / "vs_huang.tex").read_text()
 
 
 def test_stability_of_a_domain_that_hangs_is_not_applicable(tmp_path):

@@ -19,6 +19,19 @@ def run(tmp_path_factory):
         yield cfg, train(cfg)
 
 
+@pytest.mark.parametrize("variant", ["separate", "regression", "huang"])
+def test_each_model_config_trains_a_smoke_epoch(tmp_path, variant):
+    """Each experiment's config composes and trains; its share of train.max_epochs applies."""
+    with toy_config(tmp_path, 2, f"model={variant}", f"train.variant_epochs.{variant}=0.5",
+                    "train.limit_train_batches=1") as cfg:
+        result = train(cfg)
+    assert result["out_dir"].endswith(f"{DOMAIN}/{variant}") and result["epochs"] == 1
+    model = load_model(result["best"])
+    assert model.hparams.variant == variant
+    points = any(name.startswith("branches.0.points") for name in model.state_dict())
+    assert points == (variant != "huang")
+
+
 def test_one_epoch_writes_checkpoints_and_logs(run):
     cfg, result = run
     out = cfg.paths.runs + f"/{DOMAIN}/joint"

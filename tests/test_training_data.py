@@ -80,7 +80,7 @@ def make_dataset(root, sizes=None, seed=0):
 
 
 @contextmanager
-def toy_config(root, epochs: int):
+def toy_config(root, epochs: int, *overrides: str):
     """The composed config of a CPU training run on `make_dataset(root)`, with the toy
     domain in the program registry while the context lasts."""
     from geocode.config import PROGRAMS_ENV, compose
@@ -93,6 +93,7 @@ def toy_config(root, epochs: int):
             "profile=smoke", f"paths.data={data}", f"paths.build={build}", f"paths.runs={root / 'runs'}",
             f"domain={DOMAIN}", f"data.points.train_random={N_PICK}",
             f"train.max_epochs={epochs}", "train.batch_size=4", "train.accelerator=cpu", "train.devices=1",
+            *overrides,
         ])
 
 

@@ -54,6 +54,16 @@ def test_paper_profile_plans_the_whole_dag(tmp_path):
         assert f"rule {rule}:" in out or f"{rule} " in out, rule
 
 
+def test_default_run_plans_huang_everywhere_and_the_chair_ablations(tmp_path):
+    out = snakemake(tmp_path, "-n", "results/tables", "--config", "domains=[vase,chair]").stdout
+    for run in ("vase/joint", "vase/huang", "chair/joint", "chair/huang", "chair/regression", "chair/separate"):
+        assert f"runs/mini/{run}/eval/metrics.parquet" in out, run
+    assert "runs/mini/vase/regression" not in out and "runs/mini/vase/separate" not in out
+    bad = snakemake(tmp_path, "-n", "results/tables", "--config", "eval={variants: [joint, hwang]}", check=False)
+    assert bad.returncode != 0
+    assert "eval.variants: no model variant 'hwang'; use one of huang, joint, regression, separate" in bad.stdout + bad.stderr
+
+
 def test_bad_config_stops_before_any_job_with_one_line(tmp_path):
     result = snakemake(tmp_path, "-n", "results/tables", "--config", "data={shards: 0}", check=False)
     assert result.returncode != 0
@@ -96,6 +106,11 @@ def test_smoke_run_reaches_the_tables(smoke_run):
     for name in ("camera_angles", "simplified", "sparse", "noise", "stability"):
         assert (tables / f"{name}.md").exists(), name
     assert "profile smoke" in (tables / "pc_vs_sketch.md").read_text()
+    huang = pd.read_csv(tables / "vs_huang.csv", comment="#", index_col=0)    # the smoke run trains huang too
+    assert list(huang.index) == ["vase Huang et al. 2017", "vase ours"]
+    assert huang.loc["vase ours", "novel camera n"] == 4 and 0 <= huang.loc["vase ours", "novel camera p"] <= 1
+    predictions = pd.read_parquet(smoke_run / "runs" / "smoke" / "vase" / "huang" / "eval" / "predictions.parquet")
+    assert set(predictions.modality) == {"sketch"} and set(predictions.source) == {"test"}   # clean sketches only
 
 
 def test_interrupted_dataset_run_resumes_to_identical_outputs(smoke_run, tmp_path):

@@ -127,6 +127,8 @@ def parser() -> argparse.ArgumentParser:
     c.add_argument("--clouds", type=int, default=9330, help="epoch: clouds per epoch (paper-scale vase)")
     c.add_argument("--sketches", type=int, default=18660, help="epoch: sketches per epoch")
     c.add_argument("--device", default="auto", help="epoch: auto (a GPU where there is one), cpu or cuda")
+    c.add_argument("--variant", default="joint", help="epoch: the model variant (joint, separate, regression, huang)")
+    c.add_argument("--points", type=int, default=2300, help="epoch: points per cloud")
     c.add_argument("--json", action="store_true")
     c.add_argument("overrides", nargs="*", metavar="key=value", help="fit: the run's config (e.g. profile=smoke)")
     c.set_defaults(run=cmd_bench)
@@ -296,7 +298,7 @@ def cmd_bench(args):
     if args.stage == "epoch":
         from geocode.models.bench import bench_epoch
 
-        return bench_epoch(args.clouds, args.sketches, device=args.device)
+        return bench_epoch(args.clouds, args.sketches, device=args.device, n_points=args.points, variant=args.variant)
     if args.stage == "fit":
         from geocode.config import compose
         from geocode.fit import bench_fit
@@ -393,12 +395,14 @@ def cmd_metrics(args):
 def cmd_tables(args):
     import pandas as pd
 
-    from geocode.config import config_hash
+    from geocode.config import config_hash, max_epochs
     from geocode.tables import write_tables
 
     cfg = step_config(args)
     metrics = pd.concat([pd.read_parquet(p) for p in args.metrics], ignore_index=True)
-    header = f"profile {cfg.profile_name}, config {config_hash(cfg)}, {metrics.id.nunique()} test shapes"
+    epochs = ", ".join(f"{v} {max_epochs(cfg, v)}" for v in sorted(metrics.variant.unique()))
+    header = (f"profile {cfg.profile_name}, config {config_hash(cfg)}, {metrics.id.nunique()} test shapes; "
+              f"max epochs: {epochs}")
     cameras = [dict(c) for c in cfg.data.sketch.cameras]
     names = write_tables(metrics, cameras, args.output, header)
     return f"wrote {len(names)} tables to {args.output}: {', '.join(names)}"

@@ -88,6 +88,10 @@ def validate(cfg: DictConfig) -> None:
     pts = cfg.data.points
     if not pts.fps <= pts.surface or not pts.train_random <= pts.random:
         raise ConfigError("data.points: need fps <= surface and train_random <= random")
+    models = sorted(p.stem for p in (repo_root() / "conf" / "model").glob("*.yaml"))
+    for key, names in (("eval.variants", cfg.eval.variants), ("eval.ablations", cfg.eval.ablations)):
+        if unknown := [v for v in names if v not in models]:
+            raise ConfigError(f"{key}: no model variant {unknown[0]!r}; use one of {', '.join(models)}")
     names = [c.name for c in cfg.data.sketch.cameras]
     if len(set(names)) != len(names) or not any(c.train for c in cfg.data.sketch.cameras):
         raise ConfigError("data.sketch.cameras: give unique names and at least one with train: true")
@@ -102,6 +106,20 @@ def config_hash(cfg: DictConfig) -> str:
 def domains(cfg: DictConfig) -> list[str]:
     """The domains the workflow runs: `domains` from config, or every domain in the registry."""
     return list(cfg.domains) if cfg.domains else registry()
+
+
+def variants(cfg: DictConfig, domain: str) -> list[str]:
+    """The model variants trained for a domain: eval.variants, and eval.ablations where the
+    domain is one of eval.ablation_domains."""
+    ablations = cfg.eval.ablations if domain in cfg.eval.ablation_domains else []
+    return list(dict.fromkeys([*cfg.eval.variants, *ablations]))
+
+
+def max_epochs(cfg: DictConfig, variant: str) -> int:
+    """train.max_epochs times the variant's share in train.variant_epochs (baselines and
+    ablations trained beside the joint model on a smaller budget)."""
+    share = float(cfg.train.variant_epochs.get(variant, 1.0))
+    return max(1, round(int(cfg.train.max_epochs) * share))
 
 
 def data_dir(cfg: DictConfig, domain: str, split: str) -> Path:

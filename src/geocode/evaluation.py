@@ -23,19 +23,28 @@ from geocode.meshio import normalise_unit_sphere, read_obj, write_obj, write_par
 from geocode.recipe import manifest_path
 from geocode.seeds import generator
 from geocode.timing import Stopwatch
-from geocode.variations import load_recipes, save_recipes
+from geocode.variations import load_recipes, save_recipes, spread_subset
 
 log = logging.getLogger("geocode.evaluation")
 
 KEYS = ["condition", "modality", "source", "camera", "noise", "sparse", "id"]
+MODALITY_NAMES = {"points": "pc", "sketch": "sketch"}  # the model's inputs -> metrics' modality
 
 
 def simplified_split(factor: int) -> str:
     return f"test-s{factor}"
 
 
-def conditions(cfg: DictConfig) -> list[dict]:
-    """Every test input of one domain, as records with the columns of KEYS (less id)."""
+def robustness(variant: str) -> bool:
+    """Whether a variant gets the full evaluation: the robustness inputs, the mean-shape
+    baseline and the drop tests belong to the joint model's tables; the baselines and
+    ablations are compared on clean inputs only."""
+    return variant == "joint"
+
+
+def conditions(cfg: DictConfig, modalities=("pc", "sketch"), full: bool = True) -> list[dict]:
+    """The test inputs of one domain, as records with the columns of KEYS (less id): the
+    clean ones of `modalities` (pc, sketch), and with `full` the robustness inputs."""
     cams = list(cfg.data.sketch.cameras)
     trained = [c.name for c in cams if c.train]
 
@@ -46,6 +55,8 @@ def conditions(cfg: DictConfig) -> list[dict]:
                     camera=camera, noise=float(noise), sparse=int(sparse))
 
     out = [cond("pc")] + [cond("sketch", camera=c.name) for c in cams]
+    if not full:
+        return [c for c in out if c["modality"] in modalities]
     out += [cond("pc", noise=s) for s in cfg.eval.noise]
     out += [cond("pc", sparse=n) for n in cfg.eval.sparse]
     for f in cfg.eval.simplify:
@@ -54,9 +65,10 @@ def conditions(cfg: DictConfig) -> list[dict]:
 
 
 def test_ids(cfg: DictConfig, domain: str) -> list[str]:
-    ids = load_recipes(data_dir(cfg, domain, "test") / "recipes.parquet")["id"].tolist()
-    keep = cfg.eval.max_test_shapes
-    return ids if keep is None else ids[:keep]
+    """The evaluated test shapes: at most eval.max_test_shapes, evenly spread over the split
+    (so that every forced parameter class shows up), the same for every model variant."""
+    recipes = load_recipes(data_dir(cfg, domain, "test") / "recipes.parquet")
+    return spread_subset(recipes, cfg.eval.max_test_shapes)["id"].tolist()
 
 
 # -- robustness inputs ------------------------------------------------------------------------
@@ -114,8 +126,10 @@ def predict_step(cfg: DictConfig, domain: str, checkpoint: Path, out: Path) -> s
     recipe = load_recipe(cfg)
     model = load_model(checkpoint)
     ids = test_ids(cfg, domain)
+    full = robustness(model.hparams.variant)
+    modalities = [MODALITY_NAMES[m] for m in model.modalities]
     frames = []
-    for cond in conditions(cfg):
+    for cond in conditions(cfg, modalities, full):
         start = time.perf_counter()
         if cond["modality"] == "pc":
             batch = np.stack([point_input(cfg, domain, cond, i) for i in ids])
@@ -128,7 +142,8 @@ def predict_step(cfg: DictConfig, domain: str, checkpoint: Path, out: Path) -> s
         frame = pd.DataFrame(values)
         frames.append(frame.assign(**cond, id=ids))
         log.info("%s: %d shapes in %.1f s", cond["condition"], len(ids), time.perf_counter() - start)
-    frames.append(mean_shape(cfg, domain, recipe))
+    if full:
+        frames.append(mean_shape(cfg, domain, recipe))
     table = pd.concat(frames, ignore_index=True)
     write_parquet(out, table[KEYS + [c for c in table.columns if c not in KEYS]])
     return f"{domain}: {len(table)} predictions"
@@ -167,9 +182,9 @@ def hangs(cfg: DictConfig, domain: str) -> bool:
 
 
 def metrics_step(cfg: DictConfig, domain: str, predictions: Path, out: Path) -> str:
-    """Chamfer distance of every rebuilt prediction to its ground truth; the drop test on the
-    ground truth and on the clean predictions (none for a program that hangs); one row per
-    prediction (and per GT shape)."""
+    """Chamfer distance of every rebuilt prediction to its ground truth; for the joint model
+    the drop test on the ground truth and on the clean predictions (none for a program that
+    hangs); one row per prediction (and per GT shape)."""
     from geocode.metrics import chamfer_meshes
     from geocode.stability import drop_test
 
@@ -180,21 +195,23 @@ def metrics_step(cfg: DictConfig, domain: str, predictions: Path, out: Path) -> 
     gt_dir = data_dir(cfg, domain, "test") / "shapes"
     cams = {c.name for c in cfg.data.sketch.cameras if c.train}
     gt_meshes = {i: read_obj(gt_dir / f"{i}.obj") for i in test_ids(cfg, domain)}
+    full = robustness(variant)
     rows = []
     for rec in table[KEYS].to_dict("records"):
         pred = read_obj(rebuilt / rec["condition"] / f"{rec['id']}.obj")
         targets = gt_meshes.items() if rec["modality"] == "baseline" else [(rec["id"], gt_meshes[rec["id"]])]
         clean = rec["source"] == "test" and not rec["noise"] and not rec["sparse"]
         stable = np.nan
-        if clean and not hanging and (rec["modality"] == "pc" or rec["camera"] in cams):
+        if full and clean and not hanging and (rec["modality"] == "pc" or rec["camera"] in cams):
             stable = float(drop_test(pred)["stable"])
         for gt_id, gt in targets:
             rng = generator(cfg.seed, "chamfer", rec["condition"], gt_id)
             cd = chamfer_meshes(pred, gt, n=cfg.eval.chamfer_points, rng=rng)
             rows.append({**rec, "id": gt_id, "chamfer": cd, "stable": stable})
-    rows += [dict(condition="gt", modality="gt", source="test", camera="", noise=0.0, sparse=0,
-                  id=i, chamfer=np.nan, stable=np.nan if hanging else float(drop_test(m)["stable"]))
-             for i, m in gt_meshes.items()]
+    if full:
+        rows += [dict(condition="gt", modality="gt", source="test", camera="", noise=0.0, sparse=0,
+                      id=i, chamfer=np.nan, stable=np.nan if hanging else float(drop_test(m)["stable"]))
+                 for i, m in gt_meshes.items()]
     frame = pd.DataFrame(rows).assign(domain=domain, variant=variant)
     write_parquet(out, frame)
     return f"{domain}/{variant}: {len(frame)} metric rows"

@@ -1,10 +1,15 @@
-"""Per-sample metrics -> the paper's tables (docs/paper-numbers.md#tables) as CSV, Markdown and LaTeX, with the
-paper's values beside ours (no bpy, no torch).
+"""Per-sample metrics -> the paper's tables (docs/paper-numbers.md#tables) as CSV, Markdown
+and LaTeX, with the paper's values beside ours (no bpy, no torch).
 
 The metrics frame has one row per (domain, variant, condition, id) with the columns
 `modality` (pc | sketch | gt | baseline), `source` (test | s10 | s100: the test meshes or
 their simplifications), `camera`, `noise`, `sparse`, `chamfer` and `stable` (bool, or NaN
 where the drop test was not run).
+
+Every cell is a mean over test shapes (a shape's sketches from several cameras are averaged
+first) with its 95% bootstrap confidence interval (percentile, BOOTSTRAP resamples of the
+shapes, seeded) and the number of shapes. The comparison tables (vs Huang et al., the
+decoder ablations) add a paired Wilcoxon signed-rank test on per-shape Chamfer distances.
 """
 
 from __future__ import annotations
@@ -14,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from scipy import stats
 
 from geocode.meshio import write_text
 
@@ -56,9 +62,23 @@ PAPER: dict[str, dict[tuple[str, str], float]] = {
         ("vase", "GT"): 100.0, ("vase", "PC pred"): 99.79, ("vase", "sketch pred"): 99.57,
         ("table", "GT"): 99.84, ("table", "PC pred"): 96.33, ("table", "sketch pred"): 97.24,
     },
-    "ablations": {
-        ("chair joint (cls)", "pc"): 0.00040, ("chair joint (cls)", "sketch"): 0.00106,
+    "vs_huang": {
+        ("chair Huang et al. 2017", "trained cameras"): 2.142e-3, ("chair Huang et al. 2017", "novel camera"): 8.030e-3,
+        ("chair ours", "trained cameras"): 1.057e-3, ("chair ours", "novel camera"): 8.075e-3,
+        ("vase Huang et al. 2017", "trained cameras"): 4.328e-3, ("vase Huang et al. 2017", "novel camera"): 9.271e-3,
+        ("vase ours", "trained cameras"): 4.875e-3, ("vase ours", "novel camera"): 9.788e-3,
+        ("table Huang et al. 2017", "trained cameras"): 4.051e-3, ("table Huang et al. 2017", "novel camera"): 9.667e-3,
+        ("table ours", "trained cameras"): 2.497e-3, ("table ours", "novel camera"): 8.533e-3,
+        ("ceiling_lamp Huang et al. 2017", "trained cameras"): 1.361e-2,
+        ("ceiling_lamp Huang et al. 2017", "novel camera"): 2.236e-2,
+        ("ceiling_lamp ours", "trained cameras"): 1.403e-2, ("ceiling_lamp ours", "novel camera"): 2.272e-2,
+    },
+    "cls_vs_reg": {
+        ("chair classification (ours)", "pc"): 0.00040, ("chair classification (ours)", "sketch"): 0.00106,
         ("chair regression", "pc"): 0.00198, ("chair regression", "sketch"): 0.00364,
+    },
+    "joint_vs_separate": {
+        ("chair joint (ours)", "pc"): 0.00040, ("chair joint (ours)", "sketch"): 0.00106,
         ("chair separate", "pc"): 0.00037, ("chair separate", "sketch"): 0.00098,
     },
 }
@@ -70,41 +90,101 @@ TITLES = {
     "sparse": "Sparse uniform point clouds (no FPS): mean Chamfer distance",
     "noise": "Gaussian noise on the point cloud: mean Chamfer distance",
     "stability": "Structural stability: % of shapes that stand (drop test, no loose parts)",
-    "ablations": "Decoder ablations: mean Chamfer distance",
+    "vs_huang": "Ours vs Huang et al. 2017 on sketches: mean Chamfer distance",
+    "cls_vs_reg": "Classification vs regression of the continuous parameters: mean Chamfer distance",
+    "joint_vs_separate": "Joint vs separate decoders for point clouds and sketches: mean Chamfer distance",
 }
 
+NOTES = {
+    "vs_huang": "Huang et al. 2017 as the paper describes it: sketches only, one network classifying the "
+                "discrete parameters and a separate one regressing the continuous ones, trained from scratch "
+                "on our training split (no pretrained weights are reachable here). p: paired Wilcoxon "
+                "signed-rank test of ours against Huang et al. on the same test shapes.",
+    "cls_vs_reg": "Regression: the continuous parameters regressed as (value, existence) with MSE; the "
+                  "discrete ones classified. p: paired Wilcoxon signed-rank test against classification.",
+    "joint_vs_separate": "Separate: a set of decoders per modality. p: paired Wilcoxon signed-rank test "
+                         "against the joint decoders.",
+}
 
-def _mean(frame: pd.DataFrame, column: str = "chamfer") -> float:
-    values = frame[column].dropna()
-    return float(values.mean()) if len(values) else np.nan
+# Columns in the paper's order; the noise and sparse tables sort theirs by value.
+COLUMNS = {
+    "pc_vs_sketch": ["pc", "sketch"],
+    "camera_angles": ["angle 1", "angle 2", "novel"],
+    "simplified": ["full", "1/10", "1/100"],
+    "stability": ["GT", "PC pred", "sketch pred"],
+    "vs_huang": ["trained cameras", "novel camera"],
+    "cls_vs_reg": ["pc", "sketch"],
+    "joint_vs_separate": ["pc", "sketch"],
+}
+
+BOOTSTRAP = 2000  # resamples for a 95% percentile interval
+STAT_SUFFIXES = (" CI low", " CI high", " n", " p", " (paper)")
+
+# A cell: the per-shape values (indexed by test shape id) whose mean the table shows.
+Cells = dict[tuple[str, str], pd.Series]
+
+
+# ---------------------------------------------------------------- statistics
+
+
+def bootstrap_ci(values, resamples: int = BOOTSTRAP, seed: int = 0) -> tuple[float, float]:
+    """95% percentile bootstrap interval of the mean (NaN for no values)."""
+    values = np.asarray(values, dtype=float)
+    if not len(values):
+        return np.nan, np.nan
+    picks = np.random.default_rng(seed).integers(0, len(values), (resamples, len(values)))
+    low, high = np.percentile(values[picks].mean(axis=1), [2.5, 97.5])
+    return float(low), float(high)
+
+
+def wilcoxon_p(a: pd.Series, b: pd.Series) -> float:
+    """Two-sided paired Wilcoxon signed-rank p-value of a against b over the shapes (index)
+    both have; 1 where every difference is zero, NaN where none is shared."""
+    a, b = a.align(b, join="inner")
+    if not len(a):
+        return np.nan
+    if (a == b).all():
+        return 1.0
+    return float(stats.wilcoxon(a.to_numpy(), b.to_numpy()).pvalue)
+
+
+def per_shape(frame: pd.DataFrame, column: str = "chamfer") -> pd.Series:
+    """The mean of `column` per test shape (over its cameras), indexed by shape id."""
+    return frame.dropna(subset=[column]).groupby("id")[column].mean()
+
+
+# ---------------------------------------------------------------- the tables' cells
 
 
 def _trained(frame: pd.DataFrame, trained_cameras: list[str]) -> pd.DataFrame:
     return frame[frame.camera.isin(trained_cameras)]
 
 
-def pc_vs_sketch(m: pd.DataFrame, trained: list[str]) -> dict[tuple[str, str], float]:
+def _clean(m: pd.DataFrame) -> pd.DataFrame:
+    return m[(m.source == "test") & (m.noise == 0) & (m["sparse"] == 0)]
+
+
+def pc_vs_sketch(m: pd.DataFrame, trained: list[str]) -> Cells:
     """Ours on clean inputs, plus the mean-shape baseline as its own row per domain."""
     out = {}
-    clean = m[(m.variant == "joint") & (m.source == "test") & (m.noise == 0) & (m["sparse"] == 0)]
+    clean = _clean(m[m.variant == "joint"])
     for domain, d in clean.groupby("domain"):
-        out[(domain, "pc")] = _mean(d[d.modality == "pc"])
-        out[(domain, "sketch")] = _mean(_trained(d[d.modality == "sketch"], trained))
-        base = m[(m.domain == domain) & (m.modality == "baseline")]
+        out[(domain, "pc")] = per_shape(d[d.modality == "pc"])
+        out[(domain, "sketch")] = per_shape(_trained(d[d.modality == "sketch"], trained))
+        base = d[d.modality == "baseline"]
         if len(base):
-            out[(f"{domain} mean-shape baseline", "pc")] = _mean(base)
-            out[(f"{domain} mean-shape baseline", "sketch")] = _mean(base)
+            out[(f"{domain} mean-shape baseline", "pc")] = out[(f"{domain} mean-shape baseline", "sketch")] = per_shape(base)
     return out
 
 
-def camera_angles(m: pd.DataFrame, trained: list[str], novel: list[str]) -> dict:
-    sketches = m[(m.variant == "joint") & (m.modality == "sketch") & (m.source == "test")]
+def camera_angles(m: pd.DataFrame, trained: list[str], novel: list[str]) -> Cells:
+    sketches = _clean(m[(m.variant == "joint") & (m.modality == "sketch")])
     names = {**{c: f"angle {i + 1}" for i, c in enumerate(trained)}, **{c: "novel" for c in novel}}
-    return {(domain, names[cam]): _mean(g) for (domain, cam), g in sketches.groupby(["domain", "camera"])
+    return {(domain, names[cam]): per_shape(g) for (domain, cam), g in sketches.groupby(["domain", "camera"])
             if cam in names}
 
 
-def simplified(m: pd.DataFrame, trained: list[str]) -> dict:
+def simplified(m: pd.DataFrame, trained: list[str]) -> Cells:
     columns = {"test": "full", "s10": "1/10", "s100": "1/100"}
     base = m[(m.variant == "joint") & (m.noise == 0) & (m["sparse"] == 0) & m.source.isin(columns)]
     out = {}
@@ -112,22 +192,22 @@ def simplified(m: pd.DataFrame, trained: list[str]) -> dict:
         if modality == "sketch":
             g = _trained(g, trained)
         if modality in ("pc", "sketch"):
-            out[(f"{domain} {modality}", columns[source])] = _mean(g)
+            out[(f"{domain} {modality}", columns[source])] = per_shape(g)
     return out
 
 
-def sparse(m: pd.DataFrame) -> dict:
+def sparse(m: pd.DataFrame) -> Cells:
     rows = m[(m.variant == "joint") & (m.modality == "pc") & (m["sparse"] > 0)]
-    return {(domain, str(int(n))): _mean(g) for (domain, n), g in rows.groupby(["domain", "sparse"])}
+    return {(domain, str(int(n))): per_shape(g) for (domain, n), g in rows.groupby(["domain", "sparse"])}
 
 
-def noise(m: pd.DataFrame) -> dict:
+def noise(m: pd.DataFrame) -> Cells:
     rows = m[(m.variant == "joint") & (m.modality == "pc") & (m.source == "test") & (m["sparse"] == 0)]
-    return {(domain, f"{s:g}"): _mean(g) for (domain, s), g in rows.groupby(["domain", "noise"])}
+    return {(domain, f"{s:g}"): per_shape(g) for (domain, s), g in rows.groupby(["domain", "noise"])}
 
 
-def stability(m: pd.DataFrame, trained: list[str]) -> dict:
-    clean = m[m.stable.notna() & (m.source == "test") & (m.noise == 0) & (m["sparse"] == 0)]
+def stability(m: pd.DataFrame, trained: list[str]) -> Cells:
+    clean = _clean(m[m.stable.notna()])
     clean = clean[(clean.variant == "joint") | (clean.modality == "gt")]
     labels = {"gt": "GT", "pc": "PC pred", "sketch": "sketch pred"}
     out = {}
@@ -135,34 +215,67 @@ def stability(m: pd.DataFrame, trained: list[str]) -> dict:
         if modality == "sketch":
             g = _trained(g, trained)
         if modality in labels and len(g):
-            out[(domain, labels[modality])] = 100.0 * float(g.stable.astype(float).mean())
+            out[(domain, labels[modality])] = 100.0 * per_shape(g.astype({"stable": float}), "stable")
     for domain in sorted(set(m.domain) - {domain for domain, _ in out}):  # they hang: no drop test
         out.update({(domain, label): NOT_APPLICABLE for label in labels.values()})
     return out
 
 
-def ablations(m: pd.DataFrame, trained: list[str]) -> dict:
-    names = {"joint": "joint (cls)", "regression": "regression", "separate": "separate", "huang": "Huang et al. 2017"}
-    clean = m[(m.source == "test") & (m.noise == 0) & (m["sparse"] == 0) & m.variant.isin(names)]
-    if clean.variant.nunique() < 2:
-        return {}
-    out = {}
-    for (domain, variant), g in clean.groupby(["domain", "variant"]):
-        out[(f"{domain} {names[variant]}", "pc")] = _mean(g[g.modality == "pc"])
-        out[(f"{domain} {names[variant]}", "sketch")] = _mean(_trained(g[g.modality == "sketch"], trained))
-    return out
+def comparison(m: pd.DataFrame, variants: tuple[str, str], labels: tuple[str, str],
+               columns: dict[str, Callable[[pd.DataFrame], pd.DataFrame]]) -> tuple[Cells, dict[str, str]]:
+    """Two variants on clean inputs, in the domains that trained both: a row per variant
+    (`labels`), a column per input selector of `columns`; the second row is compared
+    against the first (the reference)."""
+    clean = _clean(m)
+    out, against = {}, {}
+    for domain, d in clean.groupby("domain"):
+        if not set(variants) <= set(d.variant):
+            continue
+        for variant, label in zip(variants, labels, strict=True):
+            for column, pick in columns.items():
+                out[(f"{domain} {label}", column)] = per_shape(pick(d[d.variant == variant]))
+        against[f"{domain} {labels[1]}"] = f"{domain} {labels[0]}"
+    return out, against
 
 
-def to_frame(name: str, ours: dict[tuple[str, str], float]) -> pd.DataFrame:
-    """Rows x columns of ours, each column followed by the paper's value where it has one."""
-    rows = sorted({r for r, _ in ours}, key=_row_order)
-    columns = list(dict.fromkeys(c for _, c in ours))
+def _columns(name: str, cells: Cells) -> list[str]:
+    found = list(dict.fromkeys(c for _, c in cells))
+    if name in COLUMNS:
+        return [c for c in COLUMNS[name] if c in found] + [c for c in found if c not in COLUMNS[name]]
+    return sorted(found, key=float, reverse=name == "sparse")  # 2048, 1024, 512; 0, 0.01, ...
+
+
+def to_frame(name: str, cells: Cells, against: dict[str, str] | None = None) -> pd.DataFrame:
+    """Rows x columns of ours: per column the mean, its 95% CI and the number of shapes, the
+    p-value of the rows compared `against` another row (when given), and the paper's value."""
+    rows = sorted({r for r, _ in cells}, key=_row_order)
     paper = PAPER.get(name, {})
+    empty = pd.Series(dtype=float)
     frame = pd.DataFrame(index=pd.Index(rows, name=""))
-    for c in columns:
-        frame[c] = [ours.get((r, c), np.nan) for r in rows]
+    for c in _columns(name, cells):
+        stats = [_summary(cells.get((r, c), empty)) for r in rows]
+        for j, suffix in enumerate(("", " CI low", " CI high", " n")):
+            frame[f"{c}{suffix}"] = [s[j] for s in stats]
+        if against is not None:
+            frame[f"{c} p"] = [wilcoxon_p(cells.get((r, c), empty), cells.get((against[r], c), empty))
+                               if r in against else np.nan for r in rows]
         frame[f"{c} (paper)"] = [paper.get((r, c), np.nan) for r in rows]
     return frame
+
+
+def _summary(values: pd.Series | str) -> tuple:
+    """(mean, CI low, CI high, n) of per-shape values; a text cell (n/a) stands as it is."""
+    if isinstance(values, str):
+        return values, np.nan, np.nan, 0
+    return (values.mean() if len(values) else np.nan, *bootstrap_ci(values), len(values))
+
+
+def _with_ci(value, low, high, percent: bool) -> str:
+    if isinstance(value, str):
+        return value
+    if not np.isfinite(value):
+        return "-"
+    return f"{_format(value, percent)} [{_format(low, percent)}, {_format(high, percent)}]"
 
 
 def _row_order(row: str) -> tuple[int, str]:
@@ -178,21 +291,42 @@ def _format(value: float | str, percent: bool) -> str:
     return f"{value:.2f}" if percent else f"{value:.5f}"
 
 
-def markdown(frame: pd.DataFrame, title: str, header: str, percent: bool) -> str:
-    cells = [[str(r)] + [_format(v, percent) for v in frame.loc[r]] for r in frame.index]
-    lines = [f"# {title}", "", header, "",
-             "| | " + " | ".join(frame.columns) + " |",
-             "|---" * (len(frame.columns) + 1) + "|"]
-    lines += ["| " + " | ".join(row) + " |" for row in cells]
+def display_cells(frame: pd.DataFrame, percent: bool) -> tuple[list[str], list[list[str]]]:
+    """The frame as text for Markdown and LaTeX: per column `mean [low, high]`, then its
+    n, p and paper columns."""
+    heads, columns = [], []
+    for c in [c for c in frame.columns if not c.endswith(STAT_SUFFIXES)]:
+        heads.append(c)
+        columns.append([_with_ci(v, lo, hi, percent)
+                        for v, lo, hi in zip(frame[c], frame[f"{c} CI low"], frame[f"{c} CI high"], strict=True)])
+        heads.append(f"{c} n")
+        columns.append([str(int(n)) for n in frame[f"{c} n"]])
+        if f"{c} p" in frame:
+            heads.append(f"{c} p")
+            columns.append([f"{p:.2g}" if np.isfinite(p) else "" for p in frame[f"{c} p"]])
+        heads.append(f"{c} (paper)")
+        columns.append([_format(v, percent) for v in frame[f"{c} (paper)"]])
+    rows = [[str(r)] + [col[i] for col in columns] for i, r in enumerate(frame.index)]
+    return heads, rows
+
+
+def markdown(frame: pd.DataFrame, title: str, header: str, percent: bool, note: str = "") -> str:
+    heads, rows = display_cells(frame, percent)
+    lines = [f"# {title}", "", header, "", *([note, ""] if note else []),
+             "Each value: the mean over test shapes [95% bootstrap confidence interval]; n: shapes.", "",
+             "| | " + " | ".join(heads) + " |",
+             "|---" * (len(heads) + 1) + "|"]
+    lines += ["| " + " | ".join(row) + " |" for row in rows]
     return "\n".join(lines) + "\n"
 
 
-def latex(frame: pd.DataFrame, title: str, header: str, percent: bool) -> str:
+def latex(frame: pd.DataFrame, title: str, header: str, percent: bool, note: str = "") -> str:
     escape = lambda s: str(s).replace("_", r"\_").replace("%", r"\%")  # noqa: E731
-    lines = [f"% {header}", r"\begin{tabular}{l" + "r" * len(frame.columns) + "}", r"\toprule",
-             " & ".join([""] + [escape(c) for c in frame.columns]) + r" \\", r"\midrule"]
-    lines += [" & ".join([escape(r)] + [_format(v, percent) for v in frame.loc[r]]) + r" \\"
-              for r in frame.index]
+    heads, rows = display_cells(frame, percent)
+    lines = [f"% {header}", *([f"% {note}"] if note else []),
+             r"\begin{tabular}{l" + "r" * len(heads) + "}", r"\toprule",
+             " & ".join([""] + [escape(c) for c in heads]) + r" \\", r"\midrule"]
+    lines += [" & ".join(escape(v) for v in row) + r" \\" for row in rows]
     lines += [r"\bottomrule", r"\end{tabular}", f"% {title}"]
     return "\n".join(lines) + "\n"
 
@@ -201,20 +335,28 @@ def build_tables(metrics: pd.DataFrame, cameras: list[dict]) -> dict[str, pd.Dat
     """Every table the metrics allow; a table with no rows is left out."""
     trained = [c["name"] for c in cameras if c["train"]]
     novel = [c["name"] for c in cameras if not c["train"]]
-    makers: dict[str, Callable[[], dict]] = {
+    sketches = lambda cams: lambda g: _trained(g[g.modality == "sketch"], cams)  # noqa: E731
+    pc_and_sketch = {"pc": lambda g: g[g.modality == "pc"], "sketch": sketches(trained)}
+    makers: dict[str, Callable[[], Cells | tuple[Cells, dict]]] = {
         "pc_vs_sketch": lambda: pc_vs_sketch(metrics, trained),
         "camera_angles": lambda: camera_angles(metrics, trained, novel),
         "simplified": lambda: simplified(metrics, trained),
         "sparse": lambda: sparse(metrics),
         "noise": lambda: noise(metrics),
         "stability": lambda: stability(metrics, trained),
-        "ablations": lambda: ablations(metrics, trained),
+        "vs_huang": lambda: comparison(metrics, ("huang", "joint"), ("Huang et al. 2017", "ours"),
+                                       {"trained cameras": sketches(trained), "novel camera": sketches(novel)}),
+        "cls_vs_reg": lambda: comparison(metrics, ("joint", "regression"), ("classification (ours)", "regression"),
+                                         pc_and_sketch),
+        "joint_vs_separate": lambda: comparison(metrics, ("joint", "separate"), ("joint (ours)", "separate"),
+                                                pc_and_sketch),
     }
     tables = {}
     for name, make in makers.items():
-        ours = make()
-        if ours:
-            tables[name] = to_frame(name, ours)
+        made = make()
+        cells, against = made if isinstance(made, tuple) else (made, None)
+        if cells:
+            tables[name] = to_frame(name, cells, against)
     return tables
 
 
@@ -224,11 +366,13 @@ def write_tables(metrics: pd.DataFrame, cameras: list[dict], out_dir: Path, head
     tables = build_tables(metrics, cameras)
     for name, frame in tables.items():
         percent = name == "stability"
+        note = NOTES.get(name, "")
         write_text(out_dir / f"{name}.csv", f"# {header}\n" + frame.to_csv(float_format="%.6g"))
-        write_text(out_dir / f"{name}.md", markdown(frame, TITLES[name], header, percent))
-        write_text(out_dir / f"{name}.tex", latex(frame, TITLES[name], header, percent))
+        write_text(out_dir / f"{name}.md", markdown(frame, TITLES[name], header, percent, note))
+        write_text(out_dir / f"{name}.tex", latex(frame, TITLES[name], header, percent, note))
     index = ["# Results", "", header, "", "Each table: `.csv`, `.md`, `.tex`; the paper's values in the"
-             " `(paper)` columns. Chamfer distances: lower is better.", ""]
+             " `(paper)` columns; every mean with its 95% bootstrap confidence interval and number of"
+             " test shapes. Chamfer distances: lower is better.", ""]
     index += [f"- [{TITLES[n]}]({n}.md)" for n in tables]
     index += ["", "Figures of inputs, ground truth and predictions: [../report/index.html](../report/index.html)"]
     write_text(out_dir / "README.md", "\n".join(index) + "\n")

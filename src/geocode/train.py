@@ -21,6 +21,7 @@ import pytorch_lightning as pl
 import torch
 from omegaconf import DictConfig, OmegaConf
 
+from geocode.config import max_epochs
 from geocode.meshio import write_text
 from geocode.models.bench import bench_train
 from geocode.models.module import MODALITIES, GeoCodeModule
@@ -46,12 +47,16 @@ def camera_names(cfg: DictConfig) -> list[str]:
     return [str(c.name) for c in cfg.data.sketch.cameras if c.get("train", False)]
 
 
+def variant(cfg: DictConfig) -> str:
+    return str(cfg.model.get("variant", "joint"))
+
+
 def run_dir(cfg: DictConfig, out_dir: str | Path | None) -> Path:
     if out_dir is not None:
         return Path(out_dir)
     if cfg.train.get("out_dir"):
         return Path(cfg.train.out_dir)
-    return Path(cfg.paths.runs) / cfg.domain.name / str(cfg.model.get("variant", "joint"))
+    return Path(cfg.paths.runs) / cfg.domain.name / variant(cfg)
 
 
 def build_model(cfg: DictConfig, recipe) -> GeoCodeModule:
@@ -64,11 +69,11 @@ def build_model(cfg: DictConfig, recipe) -> GeoCodeModule:
         cfg.model, heads=head_specs(recipe), lr=float(cfg.train.lr),
         step_size=int(cfg.train.step_size), gamma=float(cfg.train.gamma),
         schedule=str(cfg.train.get("schedule", "step")), warmup_epochs=int(cfg.train.get("warmup_epochs", 0)),
-        _convert_="all",
+        modalities=list(cfg.train.get("modalities") or MODALITIES), _convert_="all",
     )
 
 
-def build_datamodule(cfg: DictConfig, recipe):
+def build_datamodule(cfg: DictConfig, recipe, modalities=MODALITIES):
     from geocode.training_data import GeoCodeDataModule, PointAugment, SketchAugment
 
     t = cfg.train
@@ -84,7 +89,7 @@ def build_datamodule(cfg: DictConfig, recipe):
         augment=SketchAugment(**aug),
         eval_camera=t.get("eval_camera"),
         point_augment=PointAugment(**point_aug),
-        modalities=list(t.get("modalities") or MODALITIES),
+        modalities=list(modalities),
         seed=int(cfg.seed),
     )
 
@@ -119,7 +124,7 @@ def train(cfg: DictConfig, out_dir: str | Path | None = None) -> dict:
     pl.seed_everything(int(cfg.seed), workers=True)
     recipe = load_recipe(cfg)
     model = build_model(cfg, recipe)
-    data = build_datamodule(cfg, recipe)
+    data = build_datamodule(cfg, recipe, model.modalities)   # huang reads no clouds
     last = ckpt_dir / "last.ckpt"
     resume = last if last.exists() else None
     if resume is not None:
@@ -129,7 +134,7 @@ def train(cfg: DictConfig, out_dir: str | Path | None = None) -> dict:
                               save_last=True, enable_version_counter=False)
     progress = t.get("progress_bar")
     trainer = pl.Trainer(
-        max_epochs=int(t.max_epochs),
+        max_epochs=max_epochs(cfg, variant(cfg)),
         accelerator=t.get("accelerator", "auto"),
         devices=t.get("devices", "auto"),
         deterministic=t.get("deterministic", False),

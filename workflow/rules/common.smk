@@ -7,7 +7,7 @@ from pathlib import Path
 
 from snakemake.exceptions import WorkflowError
 
-from geocode.config import ConfigError, compose, config_hash, domains, programs_dir
+from geocode.config import ConfigError, compose, config_hash, domains, programs_dir, variants
 
 envvars:
     "PATH",
@@ -47,7 +47,8 @@ RUNS = CFG.paths.runs
 BUILD = CFG.paths.build
 LOGS = f"logs/{PROFILE}"
 PROGRAMS = programs_dir()
-VARIANTS = list(CFG.eval.variants)
+# (domain, variant) of every model trained: eval.variants for each domain, plus its ablations.
+RUNS_TRAINED = [(d, v) for d in DOMAINS for v in variants(CFG, d)]
 # A GPU per training job where the config asks for one (accelerator=auto declares none).
 GPUS = 1 if CFG.train.accelerator in ("gpu", "cuda") else 0
 
@@ -55,7 +56,7 @@ wildcard_constraints:
     domain="|".join(DOMAINS) or "none",
     split=r"train|val|test|test-s\d+",
     factor=r"\d+",
-    variant="|".join(VARIANTS),
+    variant="|".join({v for _, v in RUNS_TRAINED}) or "none",
     shard=r"\d+",
 
 

@@ -3,7 +3,7 @@
 
 rule tables:
     input:
-        metrics=expand(f"{RUNS}/{{domain}}/{{variant}}/eval/metrics.parquet", domain=DOMAINS, variant=VARIANTS),
+        metrics=[f"{RUNS}/{domain}/{variant}/eval/metrics.parquet" for domain, variant in RUNS_TRAINED],
         report="results/report/index.html",
     output:
         directory("results/tables"),

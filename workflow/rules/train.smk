@@ -1,4 +1,4 @@
-# One model per domain and variant (joint, separate, regression, huang); accelerator=auto
+# One model per domain and variant (eval.variants and eval.ablations); accelerator=auto
 # trains on a GPU where there is one.
 
 

@@ -69,16 +69,17 @@ def bench_train(batch: int = 33, n_points: int = 2300, repeats: int = 3, n_heads
 
 
 def bench_epoch(clouds: int = 9330, sketches: int = 18660, batch: int = 33, device: str = "auto",
-                n_points: int = 2300, n_heads: int = 39, seed: int = 0) -> dict:
-    """Seconds of one training epoch of the joint model at a dataset size (default: the
+                n_points: int = 2300, n_heads: int = 39, seed: int = 0, variant: str = "joint") -> dict:
+    """Seconds of one training epoch of a model variant at a dataset size (default: the
     paper-scale vase, 9330 clouds and 18660 sketches), on random tensors of the inputs'
     shapes kept on the device (data loading not included): ceil(clouds / batch) Adam
-    steps, each on `batch` clouds and the matching share of the sketches."""
+    steps, each on `batch` clouds (for a variant that reads them) and the matching share
+    of the sketches."""
     dev = _device(device)
     torch.manual_seed(seed)
     heads = [{"name": f"p{i}", "n_classes": 5 + i % 3, "continuous": True, "existence": i % 4 == 0}
              for i in range(n_heads)]
-    model = GeoCodeModule(heads).to(dev).train()
+    model = GeoCodeModule(heads, variant=variant).to(dev).train()
     opt = torch.optim.Adam(model.parameters(), lr=1e-3)
     steps = -(-clouds // batch)
     per_step = max(1, round(batch * sketches / clouds))
@@ -87,8 +88,10 @@ def bench_epoch(clouds: int = 9330, sketches: int = 18660, batch: int = 33, devi
     labels = {m: torch.stack([torch.randint(h["n_classes"], (n,), device=dev) for h in heads], dim=1)
               for m, n in (("points", batch), ("sketch", per_step))}
 
+    inputs = {"points": points if "points" in model.modalities else None, "sketches": sketch}
+
     def step():
-        out = model(points=points, sketches=sketch)
+        out = model(**inputs)
         loss = sum(model._loss(out[m], labels[m], m) for m in out)
         opt.zero_grad(set_to_none=True)
         loss.backward()
@@ -101,7 +104,8 @@ def bench_epoch(clouds: int = 9330, sketches: int = 18660, batch: int = 33, devi
             step()
         _sync(dev)
     seconds = clock.seconds
-    return {"epoch_s": seconds, "steps": steps, "clouds": steps * batch, "sketches": steps * per_step,
+    return {"epoch_s": seconds, "steps": steps, "variant": variant,
+            "clouds": steps * batch if inputs["points"] is not None else 0, "sketches": steps * per_step,
             "device": torch.cuda.get_device_name(dev) if dev.type == "cuda" else "cpu",
             "threads": torch.get_num_threads()}
 

@@ -5,8 +5,9 @@ Variants:
   joint       one point encoder, one sketch encoder, one set of decoders for both
   separate    the same encoders, a set of decoders per modality
   regression  continuous parameters regressed (value, existence) with MSE
-  huang       Huang et al. 2017: a classification network for the discrete parameters and a
-              separate regression network for the continuous ones, trained on the same data
+  huang       Huang et al. 2017: sketches only; a network (its own VGG encoder) classifying the
+              discrete parameters and a separate one regressing the continuous ones, both trained
+              from scratch on the same data (the paper's comparison, supplementary)
 """
 
 from __future__ import annotations
@@ -26,10 +27,22 @@ from geocode.models.vgg import VGG_CHANNELS, VGGSketchEncoder
 VARIANTS = ("joint", "separate", "regression", "huang")
 SCHEDULES = ("step", "cosine")  # the paper's StepLR; warmup + cosine decay for short budgets
 MODALITIES = ("points", "sketch")
+# The inputs a variant can take: Huang et al. 2017 read sketches only.
+VARIANT_MODALITIES = {"huang": ("sketch",)}
+
+
+def variant_modalities(variant: str, modalities: Sequence[str] = MODALITIES) -> list[str]:
+    """The asked-for modalities that the variant takes, in MODALITIES order."""
+    allowed = VARIANT_MODALITIES.get(variant, MODALITIES)
+    kept = [m for m in MODALITIES if m in modalities and m in allowed]
+    if not kept:
+        raise ValueError(f"model.variant={variant} takes {', '.join(allowed)}: "
+                         f"modalities={list(modalities)} leaves it no input")
+    return kept
 
 
 class Branch(nn.Module):
-    """Two encoders and their decoders for a subset of the parameters.
+    """An encoder per modality and their decoders for a subset of the parameters.
 
     Shapes: points (B, N, 3), sketches (B, 1, H, W) -> {modality: {name: (B, width)}}.
     """
@@ -37,6 +50,7 @@ class Branch(nn.Module):
     def __init__(
         self,
         specs: Sequence[Mapping],
+        modalities: Sequence[str],
         separate: bool,
         regression: bool,
         k: int,
@@ -50,9 +64,11 @@ class Branch(nn.Module):
     ) -> None:
         super().__init__()
         dgcnn = DGCNN if fast else DGCNNReference
-        self.points = dgcnn(k=k, channels=edge_channels, out_channels=point_channels)
-        self.sketch = VGGSketchEncoder(sketch_channels, out_dim=2 * point_channels, pool_size=sketch_pool)
-        keys = MODALITIES if separate else ("common",)
+        if "points" in modalities:
+            self.points = dgcnn(k=k, channels=edge_channels, out_channels=point_channels)
+        if "sketch" in modalities:
+            self.sketch = VGGSketchEncoder(sketch_channels, out_dim=2 * point_channels, pool_size=sketch_pool)
+        keys = modalities if separate else ("common",)
         self.decoders = nn.ModuleDict(
             {key: Decoders(specs, 2 * point_channels, hidden, dropout, regression) for key in keys}
         )
@@ -61,11 +77,8 @@ class Branch(nn.Module):
         return self.decoders[modality if modality in self.decoders else "common"]
 
     def forward(self, points=None, sketches=None) -> dict[str, dict[str, torch.Tensor]]:
-        embeddings = {}
-        if points is not None:
-            embeddings["points"] = self.points(points)
-        if sketches is not None:
-            embeddings["sketch"] = self.sketch(sketches)
+        embeddings = {m: getattr(self, m)(x)
+                      for m, x in (("points", points), ("sketch", sketches)) if x is not None}
         if "common" not in self.decoders:
             return {m: self.decoders[m](e) for m, e in embeddings.items()}
         # Shared decoders see both modalities in one batch: their BatchNorm then normalises
@@ -95,7 +108,8 @@ def branch_layout(variant: str, specs: Sequence[Mapping]) -> list[tuple[list[dic
 
 
 class GeoCodeModule(pl.LightningModule):
-    """Point clouds and sketches -> one class per program parameter.
+    """Point clouds and sketches (the `modalities` the variant takes) -> one class per
+    program parameter.
 
     loss = sum_params CE(decoder(DGCNN(points))) + sum_params CE(decoder(VGG(sketch)))
     (MSE for regressed parameters). Adam + StepLR, as in the paper.
@@ -120,22 +134,25 @@ class GeoCodeModule(pl.LightningModule):
         gamma: float = 0.9,
         schedule: str = "step",
         warmup_epochs: int = 0,
+        modalities: Sequence[str] = MODALITIES,
     ) -> None:
         super().__init__()
         if schedule not in SCHEDULES:
             raise ValueError(f"train.schedule={schedule!r}: use one of {', '.join(SCHEDULES)}")
         heads = [dict(h) for h in heads]
+        modalities = variant_modalities(variant, modalities)
         self.save_hyperparameters(
             {"heads": heads, "variant": variant, "k": k, "edge_channels": list(edge_channels),
              "point_channels": point_channels, "sketch_channels": list(sketch_channels),
              "sketch_pool": sketch_pool, "hidden": list(hidden), "dropout": dropout, "fast": fast,
              "lr": lr, "step_size": step_size, "gamma": gamma, "schedule": schedule,
-             "warmup_epochs": warmup_epochs}
+             "warmup_epochs": warmup_epochs, "modalities": modalities}
         )
+        self.modalities = modalities
         self.parameter_names = [h["name"] for h in heads]
         self.columns = {name: j for j, name in enumerate(self.parameter_names)}
         self.branches = nn.ModuleList(
-            Branch(group, sep, reg, k, edge_channels, point_channels, sketch_channels, sketch_pool,
+            Branch(group, modalities, sep, reg, k, edge_channels, point_channels, sketch_channels, sketch_pool,
                    hidden, dropout, fast)
             for group, sep, reg in branch_layout(variant, heads)
         )
@@ -144,6 +161,10 @@ class GeoCodeModule(pl.LightningModule):
 
     def forward(self, points=None, sketches=None) -> dict[str, dict[str, torch.Tensor]]:
         """{modality: {parameter: head output}} over all branches."""
+        for modality, inputs in (("points", points), ("sketch", sketches)):
+            if inputs is not None and modality not in self.modalities:
+                raise ValueError(f"a {self.hparams.variant} model takes no {modality} input "
+                                 f"(its modalities: {', '.join(self.modalities)})")
         out: dict[str, dict[str, torch.Tensor]] = {}
         for branch in self.branches:
             for modality, heads in branch(points, sketches).items():
@@ -170,7 +191,8 @@ class GeoCodeModule(pl.LightningModule):
 
     def _step(self, batch: Mapping[str, torch.Tensor], stage: str) -> torch.Tensor:
         labels = batch["labels"]  # (B, P)
-        outputs = self(batch.get("points"), batch.get("sketch"))
+        inputs = {m: batch.get(m) if m in self.modalities else None for m in MODALITIES}
+        outputs = self(inputs["points"], inputs["sketch"])
         size = labels.shape[0]
         total = 0.0
         accs = []
