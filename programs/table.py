@@ -1,0 +1,250 @@
+"""The table program (36 parameters: 6 discrete, 30 continuous).
+
+Layout: x = width, y = depth, z = up. Structure (every part touches the rest for every
+parameter combination):
+- top: MeshSeat, a slab whose outline morphs from a rectangle to a round top; its `Corner`
+  (the middle of the rounded corner of the outline) is the anchor of the legs, so a rounder
+  top pulls them inwards and they stay under it;
+- four legs (MeshLeg: straight or curved, tapered, square to round, splayed) hang from under
+  the corners, starting inside the slab, so raising the top moves them with it; they are
+  built for the +x +y corner and mirrored in x and y;
+- aprons: bars under the top from leg to leg, reaching up into the slab, set from flush with
+  the legs' outer faces to flush with their inner faces;
+- stretchers (none, H or X) and a lower shelf attach to the legs by curve sampling: at a
+  share of each leg's length, measured from the foot, on the leg's own axis;
+- or a pedestal: a column whose silhouette is a Bezier profile (StyleBezierSegment) on
+  radial feet (MeshQuadraticCartesian, arched by their curvature) or on a round base plate;
+- the table is grounded so that its lowest point lies on z = 0.
+Selectors reach the geometry only through Switch / Index Switch nodes, so visibility rules
+are inferred from the graph.
+"""
+
+from __future__ import annotations
+
+import math
+
+from geocode.nodes import Graph, mirror, radial, rectangle_fillet, sample_curve
+from geocode.nodes.parts import leg, quadratic_cartesian_mesh, seat, straight_frame
+from geocode.nodes.styles import bezier_segment_style
+
+# part labels (segmentation)
+TOP, LEGS, APRONS, STRETCHERS, SHELF, COLUMN, FEET, BASE_PLATE = range(1, 9)
+
+LEG_INSET = 1.2          # legs sit at least this many radii inside the top's corner
+SINK = 0.5               # parts attached under a slab start this share of it inside it
+BASE_BEVEL = 0.1         # rounding of the base plate's edges
+UP = (0.0, 0.0, 1.0)     # bars keep their profile's X vertical
+
+
+def _parameters(g: Graph) -> dict:
+    p = {}
+
+    def add(name, kind, default, low, high, description):
+        p[name] = g.input(name, kind, default=default, min=low, max=high,
+                          description=description)
+
+    # top
+    add("top_height", "float", 0.75, 0.6, 0.85, "height of the top's upper face")
+    add("top_width", "float", 1.2, 0.8, 1.6, "width of the top (x)")
+    add("top_depth", "float", 0.8, 0.6, 1.2, "depth of the top (y)")
+    add("top_thickness", "float", 0.04, 0.02, 0.06, "thickness of the top")
+    add("top_roundness", "float", 0.0, 0.0, 1.0, "top outline: 0 rectangle, 1 round")
+    add("top_bevel", "float", 0.05, 0.0, 0.2, "rounding of the top's edges")
+    # four legs
+    add("pedestal", "bool", False, 0, 1, "a central pedestal instead of four legs")
+    add("leg_thickness", "float", 0.03, 0.02, 0.05, "half-width of a leg at its top")
+    add("leg_taper", "float", 0.8, 0.5, 1.2, "foot width / top width of a leg")
+    add("leg_curvature", "float", 0.0, 0.0, 1.0, "legs: 0 straight, 1 vertical at the top")
+    add("leg_splay", "float", 0.02, 0.0, 0.1, "how far the feet spread outwards")
+    add("leg_bevel", "float", 0.0, 0.0, 1.0, "leg profile: 0 square, 1 round")
+    add("leg_inset", "float", 0.05, 0.0, 0.3, "legs moved in from the corners (share)")
+    # aprons, stretchers and shelf between the legs
+    add("aprons", "bool", True, 0, 1, "bars under the top from leg to leg")
+    add("apron_height", "float", 0.08, 0.04, 0.15, "height of the aprons below the top")
+    add("apron_thickness", "float", 0.02, 0.01, 0.03, "thickness of an apron")
+    add("apron_inset", "float", 0.5, 0.0, 1.0, "aprons: 0 flush outside, 1 flush inside")
+    add("stretchers", "int", 0, 0, 2, "bars between the legs: 0 none, 1 H, 2 X")
+    add("stretcher_height", "float", 0.25, 0.1, 0.45, "stretchers on the legs (share from foot)")
+    add("stretcher_thickness", "float", 0.012, 0.008, 0.02, "half-width of a stretcher")
+    add("stretcher_roundness", "float", 1.0, 0.0, 1.0, "stretcher profile: square to round")
+    add("shelf", "bool", False, 0, 1, "a lower shelf between the legs")
+    add("shelf_height", "float", 0.2, 0.1, 0.35, "shelf on the legs (share from foot)")
+    add("shelf_thickness", "float", 0.02, 0.015, 0.04, "thickness of the shelf")
+    # pedestal
+    add("base_plate", "bool", False, 0, 1, "pedestal on a round plate instead of feet")
+    add("column_top_radius", "float", 0.05, 0.03, 0.1, "column Bezier profile: top")
+    add("column_top_handle", "float", 0.05, 0.02, 0.12, "column Bezier profile: upper handle")
+    add("column_bottom_handle", "float", 0.06, 0.02, 0.12, "column Bezier profile: lower handle")
+    add("column_bottom_radius", "float", 0.08, 0.04, 0.15, "column Bezier profile: foot")
+    add("column_roundness", "float", 1.0, 0.0, 1.0, "column profile: 0 square, 1 round")
+    add("foot_count", "int", 4, 3, 6, "number of feet")
+    add("foot_spread", "float", 0.6, 0.4, 0.9, "reach of feet or plate (share of the top)")
+    add("foot_curvature", "float", 0.5, 0.0, 1.0, "feet: 0 straight, 1 arched")
+    add("foot_thickness", "float", 0.02, 0.012, 0.035, "half-width of a foot")
+    add("foot_rise", "float", 0.1, 0.05, 0.2, "height of the column's end above the floor")
+    add("base_thickness", "float", 0.03, 0.015, 0.06, "thickness of the base plate")
+    return p
+
+
+class _Table:
+    """Quantities shared between parts, so that every attached part follows edits."""
+
+    def __init__(self, g: Graph, p: dict):
+        self.g, self.p = g, p
+        self.top = seat(g, width=p["top_width"], depth=p["top_depth"],
+                        roundness=p["top_roundness"], top=p["top_height"],
+                        thickness=p["top_thickness"], bevel=p["top_bevel"], part=TOP)
+        # attachments start inside the slab: halfway down from its top
+        self.inside = g.sub(p["top_height"], g.mul(p["top_thickness"], SINK))
+        self.underside = g.sub(p["top_height"], p["top_thickness"])
+
+
+# -- four legs ---------------------------------------------------------------------------------
+
+class _Legs:
+    """The +x +y leg (its axis from under the top's corner to its foot) and the parts that
+    span the four legs; the other legs are its mirror images."""
+
+    def __init__(self, t: _Table):
+        g, p = t.g, t.p
+        self.t = t
+        corner = g.separate(t.top["Corner"])
+        keep = g.sub(1.0, p["leg_inset"])
+        inset = g.mul(p["leg_thickness"], LEG_INSET)
+        self.x = g.sub(g.mul(corner["X"], keep), inset)
+        self.y = g.sub(g.mul(corner["Y"], keep), inset)
+        splay = p["leg_splay"]
+        one = leg(g, top=g.combine(self.x, self.y, t.inside),
+                  bottom=g.combine(g.add(self.x, splay), g.add(self.y, splay), 0.0),
+                  curvature=p["leg_curvature"], top_radius=p["leg_thickness"],
+                  bottom_radius=g.mul(p["leg_thickness"], p["leg_taper"]),
+                  roundness=p["leg_bevel"], part=LEGS)
+        self.axis = one["Curve"]
+        self.mesh = _four(g, one["Mesh"])
+
+    def at(self, share):
+        """The point of the +x +y leg's axis at `share` of its length from the foot."""
+        return sample_curve(self.t.g, curve=self.axis, factor=self.t.g.sub(1.0, share))["Position"]
+
+
+def _four(g: Graph, geometry):
+    """`geometry` and its mirror images across x = 0 and y = 0."""
+    return mirror(g, geometry=mirror(g, geometry=geometry, axis=0)["Geometry"],
+                  axis=1)["Geometry"]
+
+
+def _bar(g: Graph, start, end, width, depth, roundness, part):
+    return straight_frame(g, start=start, end=end, width=width, depth=depth,
+                          roundness=roundness, axis=UP, part=part)["Mesh"]
+
+
+def _aprons(legs: _Legs):
+    """Bars from leg to leg along each side, from inside the slab down by `apron_height`;
+    `apron_inset` moves them from the legs' outer faces to their inner faces."""
+    t = legs.t
+    g, p = t.g, t.p
+    bottom = g.sub(t.underside, p["apron_height"])
+    height = g.sub(t.inside, bottom)
+    z = g.mul(g.add(t.inside, bottom), 0.5)
+    # from the leg's axis to the apron's middle: the outer face flush at inset 0
+    shift = g.mul(g.sub(p["leg_thickness"], g.mul(p["apron_thickness"], 0.5)),
+                  g.sub(1.0, g.mul(p["apron_inset"], 2.0)))
+    x, y = g.add(legs.x, shift), g.add(legs.y, shift)
+    side = _bar(g, g.combine(x, g.mul(legs.y, -1.0), z), g.combine(x, legs.y, z),
+                height, p["apron_thickness"], 0.0, APRONS)
+    end = _bar(g, g.combine(g.mul(legs.x, -1.0), y, z), g.combine(legs.x, y, z),
+               height, p["apron_thickness"], 0.0, APRONS)
+    return g.join([mirror(g, geometry=side, axis=0)["Geometry"],
+                   mirror(g, geometry=end, axis=1)["Geometry"]])
+
+
+def _stretchers(legs: _Legs):
+    """None, H (a bar along each side and one across their middles) or X (two diagonals),
+    between points sampled on the legs' axes."""
+    t = legs.t
+    g, p = t.g, t.p
+    point = g.separate(legs.at(p["stretcher_height"]))
+    x, y, z = point["X"], point["Y"], point["Z"]
+    size = g.mul(p["stretcher_thickness"], 2.0)
+
+    def bar(start, end):
+        return _bar(g, start, end, size, size, p["stretcher_roundness"], STRETCHERS)
+
+    side = bar(g.combine(x, g.mul(y, -1.0), z), g.combine(x, y, z))
+    across = bar(g.combine(g.mul(x, -1.0), 0.0, z), g.combine(x, 0.0, z))
+    h = g.join([mirror(g, geometry=side, axis=0)["Geometry"], across])
+    diagonal = bar(g.combine(x, y, z), g.combine(g.mul(x, -1.0), g.mul(y, -1.0), z))
+    x_shape = mirror(g, geometry=diagonal, axis=0)["Geometry"]
+    return g.index_switch(p["stretchers"], [None, h, x_shape], data_type="GEOMETRY")
+
+
+def _shelf(legs: _Legs):
+    """A slab whose corners lie on the legs' axes, at a point sampled on them."""
+    t = legs.t
+    g, p = t.g, t.p
+    point = g.separate(legs.at(p["shelf_height"]))
+    slab = seat(g, width=g.mul(point["X"], 2.0), depth=g.mul(point["Y"], 2.0), roundness=0.0,
+                top=g.add(point["Z"], g.mul(p["shelf_thickness"], 0.5)),
+                thickness=p["shelf_thickness"], bevel=0.0, part=SHELF)["Mesh"]
+    return g.switch(p["shelf"], None, slab, data_type="GEOMETRY")
+
+
+def _four_legs(t: _Table):
+    legs = _Legs(t)
+    g, p = t.g, t.p
+    return g.join([legs.mesh, g.switch(p["aprons"], None, _aprons(legs), data_type="GEOMETRY"),
+                   _stretchers(legs), _shelf(legs)])
+
+
+# -- pedestal ----------------------------------------------------------------------------------
+
+def _pedestal(t: _Table):
+    """A column from inside the top down to its end: above the floor on feet, or inside a
+    round base plate."""
+    g, p = t.g, t.p
+    reach = g.mul(g.mul(g.minimum(p["top_width"], p["top_depth"]), 0.5), p["foot_spread"])
+    plate = seat(g, width=g.mul(reach, 2.0), depth=g.mul(reach, 2.0), roundness=1.0,
+                 top=p["base_thickness"], thickness=p["base_thickness"], bevel=BASE_BEVEL,
+                 part=BASE_PLATE)["Mesh"]
+    end = g.switch(p["base_plate"], p["foot_rise"], g.mul(p["base_thickness"], SINK),
+                   data_type="FLOAT")
+    path = g.node("GeometryNodeResampleCurve", {
+        "Curve": g.node("GeometryNodeCurvePrimitiveLine", {
+            "Start": g.combine(0.0, 0.0, t.inside), "End": g.combine(0.0, 0.0, end)}),
+        "Mode": "Count", "Count": 12}).out
+    profile = rectangle_fillet(g, width=2.0, height=2.0, roundness=p["column_roundness"],
+                               resolution=3)["Curve"]
+    column = bezier_segment_style(
+        g, curve=path, profile_curve=profile, start=p["column_top_radius"],
+        start_handle=p["column_top_handle"], end_handle=p["column_bottom_handle"],
+        end=p["column_bottom_radius"], fill_caps=True, part=COLUMN)["Mesh"]
+    base = g.switch(p["base_plate"], _feet(t, reach), plate, data_type="GEOMETRY")
+    return g.join([column, base])
+
+
+def _feet(t: _Table, reach):
+    """Radial feet from the column's axis, just above its end, out to the floor; curvature
+    1 lifts the middle control point over the toe, so the foot meets the floor vertically."""
+    g, p = t.g, t.p
+    hub_z = g.add(p["foot_rise"], p["foot_thickness"])
+    curve = p["foot_curvature"]
+    offset = g.combine(g.mul(g.mul(reach, 0.5), curve), 0.0, g.mul(g.mul(hub_z, 0.5), curve))
+    one = quadratic_cartesian_mesh(g, start=g.combine(0.0, 0.0, hub_z),
+                                   end=g.combine(reach, 0.0, 0.0), offset=offset,
+                                   radius=p["foot_thickness"], roundness=1.0,
+                                   axis=(0.0, 1.0, 0.0), part=FEET)["Mesh"]
+    return radial(g, geometry=one, count=p["foot_count"], radius=0.0,
+                  start_angle=math.pi / 2)["Geometry"]
+
+
+# -- assembly ----------------------------------------------------------------------------------
+
+def build(g: Graph) -> None:
+    p = _parameters(g)
+    t = _Table(g, p)
+    support = g.switch(p["pedestal"], _four_legs(t), _pedestal(t), data_type="GEOMETRY")
+    table = g.join([t.top["Mesh"], support])
+    # ground it: whatever the parts, the lowest point rests on z = 0
+    lowest = g.separate(g.node("GeometryNodeBoundBox", {"Geometry": table})["Min"])["Z"]
+    g.output("Geometry", "geometry",
+             g.transform(table, translation=g.combine(0.0, 0.0, g.mul(lowest, -1.0))))
