@@ -84,6 +84,8 @@ def parser() -> argparse.ArgumentParser:
     c.add_argument("--clouds", type=int, default=9330, help="epoch: clouds per epoch (paper-scale vase)")
     c.add_argument("--sketches", type=int, default=18660, help="epoch: sketches per epoch")
     c.add_argument("--device", default="auto", help="epoch: auto (a GPU where there is one), cpu or cuda")
+    c.add_argument("--stability", action="store_true",
+                   help="program: also the share of shapes that pass the drop test")
     c.add_argument("--json", action="store_true")
     c.set_defaults(run=cmd_bench)
 
@@ -199,7 +201,7 @@ def cmd_bench(args):
     if args.stage == "program":
         from geocode.program import bench
 
-        return bench(args.domain, n=args.n)
+        return bench(args.domain, n=args.n, stability=args.stability)
     if args.stage == "dataset":
         from geocode.blender.bench import bench_dataset
 

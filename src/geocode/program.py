@@ -241,11 +241,12 @@ def _checked(parameter: Parameter, value) -> float:
     return number if parameter.kind == "float" else float(round(number))
 
 
-def bench(domain: str, n: int = 200, seed: int = 0) -> dict:
+def bench(domain: str, n: int = 200, seed: int = 0, stability: bool = False) -> dict:
     """Random shapes per second (evaluation + OBJ export to a temp dir), the median face
-    count, and the fraction of shapes with loose parts or non-finite vertices."""
+    count, and the fraction of shapes with loose parts or non-finite vertices; with
+    `stability`, also the fraction that pass the drop test (after the timing)."""
     from geocode.meshio import write_obj
-    from geocode.stability import loose_parts
+    from geocode.stability import is_stable, loose_parts
 
     program = Program.load(domain)
     rng = np.random.default_rng(seed)
@@ -260,6 +261,9 @@ def bench(domain: str, n: int = 200, seed: int = 0) -> dict:
         elapsed = time.perf_counter() - start
     loose = sum(loose_parts(mesh) > 0 for mesh in meshes)
     nonfinite = sum(not np.isfinite(mesh.vertices).all() for mesh in meshes)
-    return {"n": n, "shapes_per_s": round(n / elapsed, 2),
-            "median_faces": int(statistics.median(len(m.faces) for m in meshes)),
-            "loose_part_rate": loose / n, "nonfinite_rate": nonfinite / n}
+    result = {"n": n, "shapes_per_s": round(n / elapsed, 2),
+              "median_faces": int(statistics.median(len(m.faces) for m in meshes)),
+              "loose_part_rate": loose / n, "nonfinite_rate": nonfinite / n}
+    if stability:
+        result["stable_rate"] = sum(is_stable(mesh) for mesh in meshes) / n
+    return result
