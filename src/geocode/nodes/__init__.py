@@ -15,7 +15,7 @@ from geocode.nodes.curves import (
     quadratic_cartesian,
     quadratic_polar,
 )
-from geocode.nodes.graph import PART_ATTRIBUTE, Graph, Node
+from geocode.nodes.graph import PART_ATTRIBUTE, Graph, Node, Socket
 from geocode.nodes.group import NodeGroup, node_group
 from geocode.nodes.modifier import Evaluator
 from geocode.nodes.profiles import rectangle_fillet
@@ -32,7 +32,7 @@ BLOCKS: dict[str, NodeGroup] = {
 }
 
 __all__ = [
-    "BLOCKS", "PART_ATTRIBUTE", "Evaluator", "Graph", "Node", "NodeGroup", "node_group",
+    "BLOCKS", "PART_ATTRIBUTE", "Evaluator", "Graph", "Node", "NodeGroup", "Socket", "node_group",
     "rectangle_fillet", "quadratic_polar", "quadratic_cartesian", "bezier_segment", "arc",
     "handle", "sweep", "rail", "leg", "middle_expand_contract", "solidify", "sample_curve",
     "sample_curve_array", "sample_points", "radial", "mirror", "align_curve_to_start_point",

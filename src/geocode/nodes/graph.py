@@ -1,9 +1,12 @@
 """A small typed builder over a Blender Geometry Nodes tree.
 
 `Graph` wraps one `GeometryNodeTree`: it adds nodes, links sockets or sets constants, exposes
-group inputs/outputs, and offers math helpers that return output sockets, so that a block or
-a program reads like ordinary arithmetic over sockets. Sockets are addressed by identifier or
-by name, never by position (except the unnamed operands of Math-like nodes).
+group inputs/outputs, and offers named helpers for the nodes programs use often. Every output
+it hands out is a `Socket`, which overloads Python's operators, so that a block or a program
+reads as ordinary arithmetic: `g.vec(x + splay, -y - splay, 0)` adds the same Math, Vector
+Math and Combine XYZ nodes as spelling each of them out (docs/authoring.md lists the rules).
+Sockets are addressed by identifier or by name, never by position (except the unnamed
+operands of Math-like nodes).
 """
 
 from __future__ import annotations
@@ -13,7 +16,7 @@ from typing import Any
 
 import bpy
 
-Value = Any  # a bpy NodeSocket, a Node, or a constant (bool, int, float, 3-sequence)
+Value = Any  # a Socket, a bpy NodeSocket, a Node, or a constant (bool, int, float, 3-sequence)
 
 # group-input kinds -> interface socket types
 SOCKET_TYPES = {
@@ -38,19 +41,86 @@ _DATA_TYPES = {
 PART_ATTRIBUTE = "part"
 
 
-class Node:
-    """A node in a Graph; `node["Mesh"]` is its enabled output socket of that identifier/name."""
+class Socket:
+    """An output socket of a node in Graph `g`, usable as a value in Python expressions.
 
-    def __init__(self, bl_node: bpy.types.Node):
-        self.bl = bl_node
+    Each operator adds one node to `g`: `+ - * /` a Math node (Vector Math when an operand is
+    a vector; a vector times a number is SCALE), unary `-` a multiplication by -1, `abs()`
+    ABSOLUTE, `< <= > >=` a Compare node, `& | ~` a Boolean Math node; constants work on
+    either side (`1.0 - t`). `==` keeps its Python meaning (identity). `.x .y .z` read a
+    vector's components. Other attributes are the bpy socket's (`.type`, `.name`, ...).
+    """
 
-    def __getitem__(self, key: str) -> bpy.types.NodeSocket:
-        return find_socket(self.bl.outputs, key, self.bl)
+    __slots__ = ("g", "bl")
+
+    def __init__(self, g: Graph, bl_socket: bpy.types.NodeSocket):
+        self.g, self.bl = g, bl_socket
+
+    def __getattr__(self, name: str):
+        if name in Socket.__slots__:  # not yet set (copying, unpickling)
+            raise AttributeError(name)
+        return getattr(self.bl, name)
+
+    def __repr__(self) -> str:
+        return f"Socket({self.bl.node.name!r}.{self.bl.identifier!r})"
+
+    def __bool__(self) -> bool:
+        raise TypeError("a socket has no truth value while the graph is built (it varies "
+                        "per evaluation): use g.switch(...), & | ~, or g.min/g.max")
+
+    __hash__ = object.__hash__  # hashable although the comparisons below return sockets
+
+    def __add__(self, other): return self.g.arithmetic("ADD", self, other)
+    def __radd__(self, other): return self.g.arithmetic("ADD", other, self)
+    def __sub__(self, other): return self.g.arithmetic("SUBTRACT", self, other)
+    def __rsub__(self, other): return self.g.arithmetic("SUBTRACT", other, self)
+    def __mul__(self, other): return self.g.arithmetic("MULTIPLY", self, other)
+    def __rmul__(self, other): return self.g.arithmetic("MULTIPLY", other, self)
+    def __truediv__(self, other): return self.g.arithmetic("DIVIDE", self, other)
+    def __rtruediv__(self, other): return self.g.arithmetic("DIVIDE", other, self)
+    def __neg__(self): return self.g.arithmetic("MULTIPLY", self, -1.0)
+
+    def __abs__(self):
+        return self.g.vmath("ABSOLUTE", self) if is_vector(self) \
+            else self.g.math("ABSOLUTE", self)
+
+    def __lt__(self, other): return self.g.compare("LESS_THAN", self, other)
+    def __le__(self, other): return self.g.compare("LESS_EQUAL", self, other)
+    def __gt__(self, other): return self.g.compare("GREATER_THAN", self, other)
+    def __ge__(self, other): return self.g.compare("GREATER_EQUAL", self, other)
+    def __and__(self, other): return self.g.boolean("AND", self, other)
+    def __rand__(self, other): return self.g.boolean("AND", other, self)
+    def __or__(self, other): return self.g.boolean("OR", self, other)
+    def __ror__(self, other): return self.g.boolean("OR", other, self)
+    def __invert__(self): return self.g.boolean("NOT", self)
 
     @property
-    def out(self) -> bpy.types.NodeSocket:
+    def x(self) -> Socket:
+        return self.g.xyz(self)["X"]
+
+    @property
+    def y(self) -> Socket:
+        return self.g.xyz(self)["Y"]
+
+    @property
+    def z(self) -> Socket:
+        return self.g.xyz(self)["Z"]
+
+
+class Node:
+    """A node in Graph `g`; `node["Mesh"]` is its enabled output socket of that
+    identifier/name, as a `Socket`."""
+
+    def __init__(self, g: Graph, bl_node: bpy.types.Node):
+        self.g, self.bl = g, bl_node
+
+    def __getitem__(self, key: str) -> Socket:
+        return Socket(self.g, find_socket(self.bl.outputs, key, self.bl))
+
+    @property
+    def out(self) -> Socket:
         """The first enabled output (the node's main result)."""
-        return next(s for s in self.bl.outputs if s.enabled)
+        return Socket(self.g, next(s for s in self.bl.outputs if s.enabled))
 
     def input(self, key: str) -> bpy.types.NodeSocket:
         return find_socket(self.bl.inputs, key, self.bl)
@@ -70,8 +140,11 @@ def find_socket(sockets, key: str, node) -> bpy.types.NodeSocket:
 
 
 def as_socket(value: Value) -> bpy.types.NodeSocket | None:
+    """The bpy socket behind `value`, or None for a constant."""
+    if isinstance(value, Socket):
+        return value.bl
     if isinstance(value, Node):
-        return value.out
+        return value.out.bl
     if isinstance(value, bpy.types.NodeSocket):
         return value
     return None
@@ -93,11 +166,27 @@ def data_type_of(*values: Value, default: str = "FLOAT") -> str:
     return default
 
 
+def is_vector(value: Value) -> bool:
+    """Whether `value` is a vector socket or a 3-sequence constant."""
+    socket = as_socket(value)
+    if socket is not None:
+        return socket.type == "VECTOR"
+    return isinstance(value, Sequence) and not isinstance(value, str) and len(value) == 3
+
+
+def _as_vector_constant(value: Value) -> Value:
+    """A number broadcast to (v, v, v) for a vector input; anything else unchanged."""
+    if as_socket(value) is None and isinstance(value, int | float):
+        return (float(value),) * 3
+    return value
+
+
 class Graph:
     """Builder over one geometry node tree."""
 
     def __init__(self, tree: bpy.types.GeometryNodeTree):
         self.tree = tree
+        self._components: dict[int, Node] = {}  # vector socket pointer -> its Separate XYZ
 
     @classmethod
     def new(cls, name: str) -> Graph:
@@ -110,7 +199,7 @@ class Graph:
         """Add a node, set its properties (before inputs: they decide which sockets are
         enabled), then set inputs: a mapping by identifier/name, or a sequence for the
         positional operands of Math-like nodes."""
-        node = Node(self.tree.nodes.new(bl_idname))
+        node = Node(self, self.tree.nodes.new(bl_idname))
         for key, value in props.items():
             setattr(node.bl, key, value)
         if isinstance(inputs, Mapping):
@@ -146,7 +235,7 @@ class Graph:
         return self.tree.nodes.new(bl_idname)
 
     def input(self, name: str, kind: str, default: Value = None, min: float | None = None,
-              max: float | None = None, description: str = "") -> bpy.types.NodeSocket:
+              max: float | None = None, description: str = "") -> Socket:
         """Expose a group input and return its socket. kind: bool|int|float|vector|geometry."""
         item = self.tree.interface.new_socket(name, in_out="INPUT",
                                               socket_type=SOCKET_TYPES[kind])
@@ -157,8 +246,8 @@ class Graph:
             item.max_value = max
         if default is not None:
             item.default_value = tuple(default) if kind == "vector" else default
-        return find_socket(self._io_node("NodeGroupInput").outputs, item.identifier,
-                           self.tree)
+        return Socket(self, find_socket(self._io_node("NodeGroupInput").outputs,
+                                        item.identifier, self.tree))
 
     def output(self, name: str, kind: str, value: Value) -> None:
         """Expose a group output named `name` and connect `value` to it."""
@@ -168,37 +257,13 @@ class Graph:
                              self.tree)
         self.set(target, value)
 
-    # -- arithmetic -----------------------------------------------------------------------------
+    # -- arithmetic (the operators of Socket land here) ---------------------------------------
 
-    def math(self, operation: str, *operands: Value) -> bpy.types.NodeSocket:
+    def math(self, operation: str, *operands: Value) -> Socket:
+        """Math node; operation is its enum (ADD, SQRT, POWER, ...)."""
         return self.node("ShaderNodeMath", operands, operation=operation).out
 
-    def add(self, a: Value, b: Value) -> bpy.types.NodeSocket:
-        return self.math("ADD", a, b)
-
-    def sub(self, a: Value, b: Value) -> bpy.types.NodeSocket:
-        return self.math("SUBTRACT", a, b)
-
-    def mul(self, a: Value, b: Value) -> bpy.types.NodeSocket:
-        return self.math("MULTIPLY", a, b)
-
-    def div(self, a: Value, b: Value) -> bpy.types.NodeSocket:
-        return self.math("DIVIDE", a, b)
-
-    def minimum(self, a: Value, b: Value) -> bpy.types.NodeSocket:
-        return self.math("MINIMUM", a, b)
-
-    def maximum(self, a: Value, b: Value) -> bpy.types.NodeSocket:
-        return self.math("MAXIMUM", a, b)
-
-    def lerp(self, a: Value, b: Value, t: Value) -> bpy.types.NodeSocket:
-        """a + (b - a) t, linear interpolation (unclamped)."""
-        return self.map_range(t, 0.0, 1.0, a, b, clamp=False)
-
-    def int_math(self, operation: str, *operands: Value) -> bpy.types.NodeSocket:
-        return self.node("FunctionNodeIntegerMath", operands, operation=operation).out
-
-    def vmath(self, operation: str, *operands: Value) -> bpy.types.NodeSocket:
+    def vmath(self, operation: str, *operands: Value) -> Socket:
         """Vector math; SCALE takes (vector, scale), DOT/LENGTH/DISTANCE return a float."""
         node = self.node("ShaderNodeVectorMath", operation=operation)
         enabled = [s for s in node.bl.inputs if s.enabled]
@@ -207,42 +272,106 @@ class Graph:
         return node.out if operation not in ("DOT_PRODUCT", "LENGTH", "DISTANCE") \
             else node["Value"]
 
+    def arithmetic(self, operation: str, a: Value, b: Value) -> Socket:
+        """`a op b` for ADD/SUBTRACT/MULTIPLY/DIVIDE: Math on numbers; Vector Math when either
+        is a vector, where a vector times a number is SCALE and a number elsewhere is
+        broadcast to (n, n, n). Integer sockets are computed as floats, as Math does."""
+        if not (is_vector(a) or is_vector(b)):
+            return self.math(operation, a, b)
+        if operation == "MULTIPLY" and not (is_vector(a) and is_vector(b)):
+            vector, number = (a, b) if is_vector(a) else (b, a)
+            return self.vmath("SCALE", vector, number)
+        return self.vmath(operation, _as_vector_constant(a), _as_vector_constant(b))
+
+    def min(self, a: Value, b: Value) -> Socket:
+        return self.math("MINIMUM", a, b)
+
+    def max(self, a: Value, b: Value) -> Socket:
+        return self.math("MAXIMUM", a, b)
+
+    def clamp(self, value: Value, low: Value = 0.0, high: Value = 1.0) -> Socket:
+        return self.node("ShaderNodeClamp", {"Value": value, "Min": low, "Max": high}).out
+
+    def sqrt(self, value: Value) -> Socket:
+        return self.math("SQRT", value)
+
+    def sin(self, radians: Value) -> Socket:
+        return self.math("SINE", radians)
+
+    def cos(self, radians: Value) -> Socket:
+        return self.math("COSINE", radians)
+
+    def lerp(self, a: Value, b: Value, t: Value) -> Socket:
+        """a + (b - a) t, linear interpolation (unclamped)."""
+        return self.map_range(t, 0.0, 1.0, a, b, clamp=False)
+
     def map_range(self, value: Value, from_min: Value, from_max: Value, to_min: Value,
                   to_max: Value, interpolation: str = "LINEAR",
-                  clamp: bool = True) -> bpy.types.NodeSocket:
+                  clamp: bool = True) -> Socket:
         return self.node("ShaderNodeMapRange", {
             "Value": value, "From Min": from_min, "From Max": from_max,
             "To Min": to_min, "To Max": to_max,
         }, interpolation_type=interpolation, clamp=clamp).out
 
-    def combine(self, x: Value = 0.0, y: Value = 0.0, z: Value = 0.0) -> bpy.types.NodeSocket:
+    def int_math(self, operation: str, *operands: Value) -> Socket:
+        return self.node("FunctionNodeIntegerMath", operands, operation=operation).out
+
+    # -- vectors --------------------------------------------------------------------------------
+
+    def vec(self, x: Value = 0.0, y: Value = 0.0, z: Value = 0.0) -> Socket:
+        """Combine XYZ."""
         return self.node("ShaderNodeCombineXYZ", {"X": x, "Y": y, "Z": z}).out
 
-    def separate(self, vector: Value) -> Node:
-        """Node with outputs X, Y, Z."""
-        return self.node("ShaderNodeSeparateXYZ", {"Vector": vector})
+    def xyz(self, vector: Value) -> Node:
+        """Separate XYZ (outputs X, Y, Z); one node per vector socket, however often asked
+        (`v.x`, `v.y` and `v.z` share it)."""
+        socket = as_socket(vector)
+        key = socket.as_pointer() if socket is not None else None
+        if key not in self._components:
+            node = self.node("ShaderNodeSeparateXYZ", {"Vector": vector})
+            if key is None:  # a constant: nothing to share
+                return node
+            self._components[key] = node
+        return self._components[key]
+
+    def dot(self, a: Value, b: Value) -> Socket:
+        return self.vmath("DOT_PRODUCT", a, b)
+
+    def cross(self, a: Value, b: Value) -> Socket:
+        return self.vmath("CROSS_PRODUCT", a, b)
+
+    def length(self, vector: Value) -> Socket:
+        return self.vmath("LENGTH", vector)
+
+    def distance(self, a: Value, b: Value) -> Socket:
+        return self.vmath("DISTANCE", a, b)
+
+    def normalize(self, vector: Value) -> Socket:
+        return self.vmath("NORMALIZE", vector)
 
     # -- logic ----------------------------------------------------------------------------------
 
     def compare(self, operation: str, a: Value, b: Value,
-                data_type: str | None = None) -> bpy.types.NodeSocket:
+                data_type: str | None = None) -> Socket:
         """operation: LESS_THAN, LESS_EQUAL, GREATER_THAN, GREATER_EQUAL, EQUAL, NOT_EQUAL."""
+        if data_type is None and (is_vector(a) or is_vector(b)):
+            raise TypeError("vectors have no order: compare their .x/.y/.z or g.length(v)")
         data_type = data_type or data_type_of(a, b)
         return self.node("FunctionNodeCompare", {"A": a, "B": b}, data_type=data_type,
                          operation=operation)["Result"]
 
-    def boolean(self, operation: str, *operands: Value) -> bpy.types.NodeSocket:
+    def boolean(self, operation: str, *operands: Value) -> Socket:
         return self.node("FunctionNodeBooleanMath", operands, operation=operation).out
 
     def switch(self, condition: Value, if_false: Value, if_true: Value,
-               data_type: str | None = None) -> bpy.types.NodeSocket:
+               data_type: str | None = None) -> Socket:
         data_type = data_type or data_type_of(if_false, if_true)
         return self.node("GeometryNodeSwitch", {
             "Switch": condition, "False": if_false, "True": if_true,
         }, input_type=data_type)["Output"]
 
     def index_switch(self, index: Value, items: Sequence[Value],
-                     data_type: str | None = None) -> bpy.types.NodeSocket:
+                     data_type: str | None = None) -> Socket:
         """Output items[index]; an index out of range gives the type's zero value."""
         node = self.node("GeometryNodeIndexSwitch", data_type=data_type or data_type_of(*items))
         while len(node.bl.index_switch_items) < len(items):
@@ -253,9 +382,43 @@ class Graph:
                 self.set(node.input(f"Item_{i}"), item)
         return node["Output"]
 
-    # -- geometry helpers -------------------------------------------------------------------
+    # -- fields -----------------------------------------------------------------------------
 
-    def join(self, geometries: Iterable[Value]) -> bpy.types.NodeSocket:
+    def position(self) -> Socket:
+        return self.node("GeometryNodeInputPosition").out
+
+    def normal(self) -> Socket:
+        return self.node("GeometryNodeInputNormal")["Normal"]
+
+    def tangent(self) -> Socket:
+        return self.node("GeometryNodeInputTangent").out
+
+    def index(self) -> Socket:
+        return self.node("GeometryNodeInputIndex").out
+
+    def spline_factor(self) -> Socket:
+        """Field: the fraction of the spline's length at each point, in [0, 1]."""
+        return self.node("GeometryNodeSplineParameter")["Factor"]
+
+    # -- curves -----------------------------------------------------------------------------
+
+    def line(self, start: Value, end: Value, count: Value = None) -> Socket:
+        """A straight curve from `start` to `end`; with `count`, resampled to that many
+        evenly spaced points (else its two end points)."""
+        line = self.node("GeometryNodeCurvePrimitiveLine", {"Start": start, "End": end}).out
+        return line if count is None else self.resample(line, count)
+
+    def resample(self, curve: Value, count: Value) -> Socket:
+        """Resample Curve to `count` evenly spaced points."""
+        return self.node("GeometryNodeResampleCurve", {"Curve": curve, "Mode": "Count",
+                                                       "Count": count}).out
+
+    def set_tilt(self, curve: Value, tilt: Value) -> Socket:
+        return self.node("GeometryNodeSetCurveTilt", {"Curve": curve, "Tilt": tilt}).out
+
+    # -- geometry ---------------------------------------------------------------------------
+
+    def join(self, geometries: Iterable[Value]) -> Socket:
         """Join Geometry; the multi-input keeps the order of `geometries`."""
         node = self.node("GeometryNodeJoinGeometry")
         # multi-input sockets list links in reverse order of creation
@@ -264,7 +427,7 @@ class Graph:
         return node.out
 
     def transform(self, geometry: Value, translation: Value = None, rotation: Value = None,
-                  scale: Value = None) -> bpy.types.NodeSocket:
+                  scale: Value = None) -> Socket:
         """Transform Geometry; rotation is an Euler vector (radians) or a rotation socket."""
         if rotation is not None and not _is_rotation(rotation):
             rotation = self.euler_to_rotation(rotation)
@@ -273,21 +436,71 @@ class Graph:
             "Scale": scale,
         }).out
 
-    def euler_to_rotation(self, euler: Value) -> bpy.types.NodeSocket:
+    def euler_to_rotation(self, euler: Value) -> Socket:
         return self.node("FunctionNodeEulerToRotation", {"Euler": euler}).out
 
-    def label_part(self, geometry: Value, label: Value) -> bpy.types.NodeSocket:
+    def set_position(self, geometry: Value, position: Value = None,
+                     offset: Value = None) -> Socket:
+        return self.node("GeometryNodeSetPosition", {
+            "Geometry": geometry, "Position": position, "Offset": offset}).out
+
+    def delete_faces(self, geometry: Value, selection: Value) -> Socket:
+        """Delete the selected faces only, keeping their edges and points."""
+        return self.node("GeometryNodeDeleteGeometry", {
+            "Geometry": geometry, "Selection": selection},
+            domain="FACE", mode="ONLY_FACE").out
+
+    def bounding_box(self, geometry: Value) -> Node:
+        """Bounding Box: outputs `Bounding Box` (a mesh), `Min` and `Max` (vectors)."""
+        return self.node("GeometryNodeBoundBox", {"Geometry": geometry})
+
+    def instance_on_points(self, points: Value, instance: Value, realize: bool = True,
+                           **inputs: Value) -> Socket:
+        """A copy of `instance` on every point (extra inputs by name: Rotation, Scale, ...);
+        realized into plain geometry unless `realize` is false."""
+        copies = self.node("GeometryNodeInstanceOnPoints",
+                           {"Points": points, "Instance": instance, **inputs}).out
+        return self.realize(copies) if realize else copies
+
+    def realize(self, geometry: Value) -> Socket:
+        return self.node("GeometryNodeRealizeInstances", {"Geometry": geometry}).out
+
+    def label_part(self, geometry: Value, label: Value) -> Socket:
         """Store the integer segmentation label `part` on every face."""
         return self.node("GeometryNodeStoreNamedAttribute", {
             "Geometry": geometry, "Name": PART_ATTRIBUTE, "Value": label,
         }, data_type="INT", domain="FACE").out
 
-    def spline_factor(self) -> bpy.types.NodeSocket:
-        """Field: the fraction of the spline's length at each point, in [0, 1]."""
-        return self.node("GeometryNodeSplineParameter")["Factor"]
+    def ground(self, geometry: Value) -> Socket:
+        """`geometry` moved along z so that its lowest point lies on z = 0."""
+        lowest = self.bounding_box(geometry)["Min"].z
+        return self.transform(geometry, translation=self.vec(0.0, 0.0, -lowest))
 
-    def position(self) -> bpy.types.NodeSocket:
-        return self.node("GeometryNodeInputPosition").out
+    # -- prefix spellings, kept until vase and chair are rewritten; use the operators -------
+
+    def add(self, a: Value, b: Value) -> Socket:
+        return self.math("ADD", a, b)
+
+    def sub(self, a: Value, b: Value) -> Socket:
+        return self.math("SUBTRACT", a, b)
+
+    def mul(self, a: Value, b: Value) -> Socket:
+        return self.math("MULTIPLY", a, b)
+
+    def div(self, a: Value, b: Value) -> Socket:
+        return self.math("DIVIDE", a, b)
+
+    def minimum(self, a: Value, b: Value) -> Socket:
+        return self.min(a, b)
+
+    def maximum(self, a: Value, b: Value) -> Socket:
+        return self.max(a, b)
+
+    def combine(self, x: Value = 0.0, y: Value = 0.0, z: Value = 0.0) -> Socket:
+        return self.vec(x, y, z)
+
+    def separate(self, vector: Value) -> Node:
+        return self.node("ShaderNodeSeparateXYZ", {"Vector": vector})
 
     # -- layout -----------------------------------------------------------------------------
 
