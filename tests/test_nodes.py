@@ -224,3 +224,35 @@ def test_geometry_helpers_ground_and_bound(blender):
     assert len(vertices) == 5
     assert vertices[:, 2].min() == pytest.approx(0.0, abs=1e-6)
     assert vertices[:, 2].max() == pytest.approx(1.0)
+
+
+# -- parts and frames -----------------------------------------------------------------------------
+
+def test_parts_capture_inputs_and_outputs_and_compute_the_same(blender):
+    def build(g):
+        x = g.input("x", "float", default=3.0)
+        with g.part("Double"):
+            doubled = g.named("doubled", 2 * x)
+            with g.part("Inner"):
+                inner = doubled + x       # x enters through both parts
+        with g.part("Sibling"):
+            sibling = inner * 10          # from one part's inner part into a sibling
+        with g.frame("Assembly"):
+            return g.vec(doubled, sibling, x - 1)
+
+    evaluator = _point_graph(build)
+    assert evaluator.mesh().vertices[0] == pytest.approx([6, 90, 2])
+    assert evaluator.mesh({"x": 1.0}).vertices[0] == pytest.approx([2, 30, 0])
+    tree = blender.data.node_groups["probe"]
+    groups = {n.label: n for n in tree.nodes if n.bl_idname == "GeometryNodeGroup"}
+    assert set(groups) == {"Double", "Sibling"}
+    double = groups["Double"].node_tree
+    assert [i.name for i in double.interface.items_tree if i.in_out == "INPUT"] == ["x"]
+    assert {i.name for i in double.interface.items_tree if i.in_out == "OUTPUT"} \
+        == {"doubled", "Value"}
+    inner = next(n for n in double.nodes if n.label == "Inner").node_tree
+    assert [i.name for i in inner.interface.items_tree if i.in_out == "INPUT"] \
+        == ["doubled", "x"]
+    framed = [n for n in tree.nodes if n.parent is not None]
+    assert {n.parent.label for n in framed} == {"Assembly"}
+    assert {n.bl_idname for n in framed} == {"ShaderNodeCombineXYZ", "ShaderNodeMath"}

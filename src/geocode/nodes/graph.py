@@ -11,7 +11,8 @@ operands of Math-like nodes).
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Iterable, Iterator, Mapping, Sequence
+from contextlib import contextmanager
 from typing import Any
 
 import bpy
@@ -36,6 +37,16 @@ _DATA_TYPES = {
     "VECTOR": "VECTOR",
     "GEOMETRY": "GEOMETRY",
     "ROTATION": "ROTATION",
+}
+
+# socket.type -> the interface socket type that carries it into or out of a part
+_INTERFACE_TYPES = {
+    "VALUE": "NodeSocketFloat",
+    "INT": "NodeSocketInt",
+    "BOOLEAN": "NodeSocketBool",
+    "VECTOR": "NodeSocketVector",
+    "GEOMETRY": "NodeSocketGeometry",
+    "ROTATION": "NodeSocketRotation",
 }
 
 PART_ATTRIBUTE = "part"
@@ -166,6 +177,14 @@ def data_type_of(*values: Value, default: str = "FLOAT") -> str:
     return default
 
 
+def _io_node(tree, bl_idname: str) -> bpy.types.Node:
+    """The tree's Group Input or Group Output node, added if missing."""
+    for node in tree.nodes:
+        if node.bl_idname == bl_idname:
+            return node
+    return tree.nodes.new(bl_idname)
+
+
 def is_vector(value: Value) -> bool:
     """Whether `value` is a vector socket or a 3-sequence constant."""
     socket = as_socket(value)
@@ -181,16 +200,126 @@ def _as_vector_constant(value: Value) -> Value:
     return value
 
 
+class _Level:
+    """A tree being built: the program's own, or a part's (a group node in `parent`)."""
+
+    def __init__(self, tree, parent: _Level | None = None, node=None):
+        self.tree, self.parent, self.node = tree, parent, node
+        self.frame = None           # the labelled frame new nodes go into
+        self.imported: dict = {}    # outer socket pointer -> this tree's group-input socket
+        self.exported: dict = {}    # inner socket pointer -> the group node's output socket
+
+
 class Graph:
-    """Builder over one geometry node tree."""
+    """Builder over one geometry node tree.
+
+    `with g.part("Handles"):` builds what follows inside a named node group; a value from
+    outside becomes an input of that group, and a value used outside after the block
+    becomes an output, so a program reads the same with or without parts. `with
+    g.frame("Assembly"):` puts the nodes that follow into a labelled frame.
+    """
 
     def __init__(self, tree: bpy.types.GeometryNodeTree):
-        self.tree = tree
-        self._components: dict[int, Node] = {}  # vector socket pointer -> its Separate XYZ
+        self.root = _Level(tree)
+        self._open = [self.root]                 # innermost last
+        self._levels = {tree.name: self.root}    # every tree built here, by name
+        self._names: dict[int, str] = {}         # socket pointer -> name given by `named`
+        self._components: dict[tuple, Node] = {}  # (tree, vector) pointers -> Separate XYZ
 
     @classmethod
     def new(cls, name: str) -> Graph:
         return cls(bpy.data.node_groups.new(name, "GeometryNodeTree"))
+
+    @property
+    def tree(self) -> bpy.types.GeometryNodeTree:
+        """The tree new nodes go into: the innermost open part's, else the program's."""
+        return self._open[-1].tree
+
+    # -- parts and frames ---------------------------------------------------------------------
+
+    @contextmanager
+    def part(self, name: str) -> Iterator[None]:
+        """Build the block's nodes inside a new node group, `name` in the node editor."""
+        outer = self._open[-1]
+        tree = bpy.data.node_groups.new(f"{self.root.tree.name}: {name}", "GeometryNodeTree")
+        node = self.node("GeometryNodeGroup", node_tree=tree).bl
+        node.label = name
+        level = self._levels[tree.name] = _Level(tree, outer, node)
+        self._open.append(level)
+        try:
+            yield
+        finally:
+            self._open.pop()
+
+    @contextmanager
+    def frame(self, label: str) -> Iterator[None]:
+        """Put the nodes added in the block into a frame labelled `label`."""
+        level = self._open[-1]
+        frame = level.tree.nodes.new("NodeFrame")
+        frame.label = label
+        frame.parent = level.frame
+        previous, level.frame = level.frame, frame
+        try:
+            yield
+        finally:
+            level.frame = previous
+
+    def named(self, name: str, value: Socket) -> Socket:
+        """Name `value`: the input or output that carries it into or out of a part is called
+        `name`, and so is its node when that has one output."""
+        self._names[value.bl.as_pointer()] = name
+        node = value.bl.node
+        if sum(s.enabled for s in node.outputs) == 1:
+            node.label = name
+        return value
+
+    def _crossing_name(self, socket) -> str:
+        if socket.as_pointer() in self._names:
+            return self._names[socket.as_pointer()]
+        if socket.node.bl_idname in ("NodeGroupInput", "GeometryNodeGroup"):
+            return socket.name
+        return socket.node.label or socket.name
+
+    def _bring(self, socket, tree) -> bpy.types.NodeSocket:
+        """A socket of `tree` that carries the value of `socket`, from whichever tree of
+        this graph it lives in: through the outputs of the parts it is inside of, then the
+        inputs of the parts `tree` is inside of."""
+        source = socket.id_data
+        if source == tree:
+            return socket
+        level = self._levels[source.name]
+        if self._inside(level, tree):
+            return self._bring(self._export(level, socket), tree)
+        inner = self._levels[tree.name]
+        return self._import(inner, self._bring(socket, inner.parent.tree))
+
+    def _inside(self, level: _Level, tree) -> bool:
+        while level.parent is not None:
+            level = level.parent
+            if level.tree == tree:
+                return True
+        return False
+
+    def _import(self, level: _Level, outer) -> bpy.types.NodeSocket:
+        key = outer.as_pointer()
+        if key not in level.imported:
+            item = level.tree.interface.new_socket(self._crossing_name(outer), in_out="INPUT",
+                                                   socket_type=_INTERFACE_TYPES[outer.type])
+            level.parent.tree.links.new(outer, find_socket(level.node.inputs, item.identifier,
+                                                           level.node))
+            level.imported[key] = find_socket(_io_node(level.tree, "NodeGroupInput").outputs,
+                                              item.identifier, level.tree)
+        return level.imported[key]
+
+    def _export(self, level: _Level, inner) -> bpy.types.NodeSocket:
+        key = inner.as_pointer()
+        if key not in level.exported:
+            item = level.tree.interface.new_socket(self._crossing_name(inner), in_out="OUTPUT",
+                                                   socket_type=_INTERFACE_TYPES[inner.type])
+            level.tree.links.new(inner, find_socket(
+                _io_node(level.tree, "NodeGroupOutput").inputs, item.identifier, level.tree))
+            level.exported[key] = find_socket(level.node.outputs, item.identifier, level.node)
+        return level.exported[key]
 
     # -- nodes and links ----------------------------------------------------------------------
 
@@ -200,6 +329,7 @@ class Graph:
         enabled), then set inputs: a mapping by identifier/name, or a sequence for the
         positional operands of Math-like nodes."""
         node = Node(self, self.tree.nodes.new(bl_idname))
+        node.bl.parent = self._open[-1].frame
         for key, value in props.items():
             setattr(node.bl, key, value)
         if isinstance(inputs, Mapping):
@@ -215,24 +345,18 @@ class Graph:
 
     def set(self, target: bpy.types.NodeSocket, value: Value) -> None:
         """Link `value` into `target` if it is a socket/node, else store it as the constant."""
-        source = as_socket(value)
-        if source is not None:
-            self.tree.links.new(source, target)
+        if as_socket(value) is not None:
+            self.link(value, target)
         elif isinstance(value, Sequence) and not isinstance(value, str):
             target.default_value = tuple(value)
         else:
             target.default_value = value
 
     def link(self, source: Value, target: bpy.types.NodeSocket) -> None:
-        self.tree.links.new(as_socket(source), target)
+        tree = target.id_data
+        tree.links.new(self._bring(as_socket(source), tree), target)
 
     # -- group interface ----------------------------------------------------------------------
-
-    def _io_node(self, bl_idname: str) -> bpy.types.Node:
-        for node in self.tree.nodes:
-            if node.bl_idname == bl_idname:
-                return node
-        return self.tree.nodes.new(bl_idname)
 
     def input(self, name: str, kind: str, default: Value = None, min: float | None = None,
               max: float | None = None, description: str = "") -> Socket:
@@ -246,14 +370,14 @@ class Graph:
             item.max_value = max
         if default is not None:
             item.default_value = tuple(default) if kind == "vector" else default
-        return Socket(self, find_socket(self._io_node("NodeGroupInput").outputs,
+        return Socket(self, find_socket(_io_node(self.tree, "NodeGroupInput").outputs,
                                         item.identifier, self.tree))
 
     def output(self, name: str, kind: str, value: Value) -> None:
         """Expose a group output named `name` and connect `value` to it."""
         item = self.tree.interface.new_socket(name, in_out="OUTPUT",
                                               socket_type=SOCKET_TYPES[kind])
-        target = find_socket(self._io_node("NodeGroupOutput").inputs, item.identifier,
+        target = find_socket(_io_node(self.tree, "NodeGroupOutput").inputs, item.identifier,
                              self.tree)
         self.set(target, value)
 
@@ -326,12 +450,11 @@ class Graph:
         """Separate XYZ (outputs X, Y, Z); one node per vector socket, however often asked
         (`v.x`, `v.y` and `v.z` share it)."""
         socket = as_socket(vector)
-        key = socket.as_pointer() if socket is not None else None
+        if socket is None:  # a constant: nothing to share
+            return self.node("ShaderNodeSeparateXYZ", {"Vector": vector})
+        key = (self.tree.as_pointer(), socket.as_pointer())
         if key not in self._components:
-            node = self.node("ShaderNodeSeparateXYZ", {"Vector": vector})
-            if key is None:  # a constant: nothing to share
-                return node
-            self._components[key] = node
+            self._components[key] = self.node("ShaderNodeSeparateXYZ", {"Vector": vector})
         return self._components[key]
 
     def dot(self, a: Value, b: Value) -> Socket:
@@ -504,24 +627,37 @@ class Graph:
 
     # -- layout -----------------------------------------------------------------------------
 
-    def arrange(self, dx: float = 260.0, dy: float = 200.0) -> None:
-        """Place nodes in columns by their depth from the inputs, so that the tree is readable
-        when the .blend is opened in Blender's node editor."""
-        depth = {node.name: 0 for node in self.tree.nodes}
-        for _ in range(len(depth)):
-            changed = False
-            for link in self.tree.links:
-                new = depth[link.from_node.name] + 1
-                if new > depth[link.to_node.name]:
-                    depth[link.to_node.name] = new
-                    changed = True
-            if not changed:
-                break
+    def arrange(self) -> None:
+        """Lay out the program's tree and its parts for Blender's node editor."""
+        for level in self._levels.values():
+            arrange(level.tree)
+
+
+def arrange(tree, dx: float = 260.0, dy: float = 200.0) -> None:
+    """Columns by depth from the inputs; the nodes of each frame in a band of their own,
+    bands stacked downwards in the order the frames were made."""
+    nodes = [node for node in tree.nodes if node.bl_idname != "NodeFrame"]
+    depth = {node.name: 0 for node in nodes}
+    for _ in range(len(depth)):
+        changed = False
+        for link in tree.links:
+            new = depth[link.from_node.name] + 1
+            if new > depth[link.to_node.name]:
+                depth[link.to_node.name] = new
+                changed = True
+        if not changed:
+            break
+    bands: dict[str, list] = {}  # frame name ("" outside frames) -> its nodes
+    for node in nodes:
+        bands.setdefault(node.parent.name if node.parent else "", []).append(node)
+    top = 0.0
+    for band in bands.values():
         rows: dict[int, int] = {}
-        for node in self.tree.nodes:
+        for node in band:
             column = depth[node.name]
-            node.location = (column * dx, -rows.get(column, 0) * dy)
+            node.location_absolute = (column * dx, top - rows.get(column, 0) * dy)
             rows[column] = rows.get(column, 0) + 1
+        top -= (max(rows.values()) + 1) * dy
 
 
 def _is_rotation(value: Value) -> bool:
