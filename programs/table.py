@@ -91,12 +91,14 @@ class _Table:
 
     def __init__(self, g: Graph, p: dict):
         self.g, self.p = g, p
-        self.top = seat(g, width=p["top_width"], depth=p["top_depth"],
-                        roundness=p["top_roundness"], top=p["top_height"],
-                        thickness=p["top_thickness"], bevel=p["top_bevel"], part=TOP)
-        # attachments start inside the slab: halfway down from its top
-        self.inside = g.sub(p["top_height"], g.mul(p["top_thickness"], SINK))
-        self.underside = g.sub(p["top_height"], p["top_thickness"])
+        with g.part("Top"):
+            top = seat(g, width=p["top_width"], depth=p["top_depth"],
+                       roundness=p["top_roundness"], top=p["top_height"],
+                       thickness=p["top_thickness"], bevel=p["top_bevel"], part=TOP)
+            self.mesh, self.corner = top["Mesh"], top["Corner"]
+            # attachments start inside the slab: halfway down from its top
+            self.inside = g.named("inside", p["top_height"] - p["top_thickness"] * SINK)
+            self.underside = g.named("underside", p["top_height"] - p["top_thickness"])
 
 
 # -- four legs ---------------------------------------------------------------------------------
@@ -108,23 +110,22 @@ class _Legs:
     def __init__(self, t: _Table):
         g, p = t.g, t.p
         self.t = t
-        corner = g.separate(t.top["Corner"])
-        keep = g.sub(1.0, p["leg_inset"])
-        inset = g.mul(p["leg_thickness"], LEG_INSET)
-        self.x = g.sub(g.mul(corner["X"], keep), inset)
-        self.y = g.sub(g.mul(corner["Y"], keep), inset)
-        splay = p["leg_splay"]
-        one = leg(g, top=g.combine(self.x, self.y, t.inside),
-                  bottom=g.combine(g.add(self.x, splay), g.add(self.y, splay), 0.0),
-                  curvature=p["leg_curvature"], top_radius=p["leg_thickness"],
-                  bottom_radius=g.mul(p["leg_thickness"], p["leg_taper"]),
-                  roundness=p["leg_bevel"], part=LEGS)
-        self.axis = one["Curve"]
-        self.mesh = _four(g, one["Mesh"])
+        with g.part("Legs"):
+            inset = p["leg_thickness"] * LEG_INSET
+            self.x = g.named("leg x", t.corner.x * (1.0 - p["leg_inset"]) - inset)
+            self.y = g.named("leg y", t.corner.y * (1.0 - p["leg_inset"]) - inset)
+            splay = p["leg_splay"]
+            one = leg(g, top=g.vec(self.x, self.y, t.inside),
+                      bottom=g.vec(self.x + splay, self.y + splay, 0.0),
+                      curvature=p["leg_curvature"], top_radius=p["leg_thickness"],
+                      bottom_radius=p["leg_thickness"] * p["leg_taper"],
+                      roundness=p["leg_bevel"], part=LEGS)
+            self.axis = g.named("leg axis", one["Curve"])
+            self.mesh = _four(g, one["Mesh"])
 
     def at(self, share):
         """The point of the +x +y leg's axis at `share` of its length from the foot."""
-        return sample_curve(self.t.g, curve=self.axis, factor=self.t.g.sub(1.0, share))["Position"]
+        return sample_curve(self.t.g, curve=self.axis, factor=1.0 - share)["Position"]
 
 
 def _four(g: Graph, geometry):
@@ -143,19 +144,20 @@ def _aprons(legs: _Legs):
     `apron_inset` moves them from the legs' outer faces to their inner faces."""
     t = legs.t
     g, p = t.g, t.p
-    bottom = g.sub(t.underside, p["apron_height"])
-    height = g.sub(t.inside, bottom)
-    z = g.mul(g.add(t.inside, bottom), 0.5)
-    # from the leg's axis to the apron's middle: the outer face flush at inset 0
-    shift = g.mul(g.sub(p["leg_thickness"], g.mul(p["apron_thickness"], 0.5)),
-                  g.sub(1.0, g.mul(p["apron_inset"], 2.0)))
-    x, y = g.add(legs.x, shift), g.add(legs.y, shift)
-    side = _bar(g, g.combine(x, g.mul(legs.y, -1.0), z), g.combine(x, legs.y, z),
-                height, p["apron_thickness"], 0.0, APRONS)
-    end = _bar(g, g.combine(g.mul(legs.x, -1.0), y, z), g.combine(legs.x, y, z),
-               height, p["apron_thickness"], 0.0, APRONS)
-    return g.join([mirror(g, geometry=side, axis=0)["Geometry"],
-                   mirror(g, geometry=end, axis=1)["Geometry"]])
+    with g.part("Aprons"):
+        bottom = t.underside - p["apron_height"]
+        height = t.inside - bottom
+        z = (t.inside + bottom) * 0.5
+        # from the leg's axis to the apron's middle: the outer faces flush at inset 0
+        shift = (p["leg_thickness"] - p["apron_thickness"] * 0.5) * (1.0 - p["apron_inset"] * 2.0)
+        x, y = legs.x + shift, legs.y + shift
+        side = _bar(g, g.vec(x, -legs.y, z), g.vec(x, legs.y, z), height,
+                    p["apron_thickness"], 0.0, APRONS)
+        end = _bar(g, g.vec(-legs.x, y, z), g.vec(legs.x, y, z), height,
+                   p["apron_thickness"], 0.0, APRONS)
+        aprons = g.join([mirror(g, geometry=side, axis=0)["Geometry"],
+                         mirror(g, geometry=end, axis=1)["Geometry"]])
+        return g.switch(p["aprons"], None, aprons)
 
 
 def _stretchers(legs: _Legs):
@@ -163,37 +165,39 @@ def _stretchers(legs: _Legs):
     between points sampled on the legs' axes."""
     t = legs.t
     g, p = t.g, t.p
-    point = g.separate(legs.at(p["stretcher_height"]))
-    x, y, z = point["X"], point["Y"], point["Z"]
-    size = g.mul(p["stretcher_thickness"], 2.0)
+    with g.part("Stretchers"):
+        point = legs.at(p["stretcher_height"])
+        x, y, z = point.x, point.y, point.z
+        size = p["stretcher_thickness"] * 2.0
 
-    def bar(start, end):
-        return _bar(g, start, end, size, size, p["stretcher_roundness"], STRETCHERS)
+        def bar(start, end):
+            return _bar(g, start, end, size, size, p["stretcher_roundness"], STRETCHERS)
 
-    side = bar(g.combine(x, g.mul(y, -1.0), z), g.combine(x, y, z))
-    across = bar(g.combine(g.mul(x, -1.0), 0.0, z), g.combine(x, 0.0, z))
-    h = g.join([mirror(g, geometry=side, axis=0)["Geometry"], across])
-    diagonal = bar(g.combine(x, y, z), g.combine(g.mul(x, -1.0), g.mul(y, -1.0), z))
-    x_shape = mirror(g, geometry=diagonal, axis=0)["Geometry"]
-    return g.index_switch(p["stretchers"], [None, h, x_shape], data_type="GEOMETRY")
+        side = bar(g.vec(x, -y, z), point)
+        across = bar(g.vec(-x, 0.0, z), g.vec(x, 0.0, z))
+        h = g.join([mirror(g, geometry=side, axis=0)["Geometry"], across])
+        diagonal = bar(point, g.vec(-x, -y, z))
+        x_shape = mirror(g, geometry=diagonal, axis=0)["Geometry"]
+        return g.index_switch(p["stretchers"], [None, h, x_shape])
 
 
 def _shelf(legs: _Legs):
     """A slab whose corners lie on the legs' axes, at a point sampled on them."""
     t = legs.t
     g, p = t.g, t.p
-    point = g.separate(legs.at(p["shelf_height"]))
-    slab = seat(g, width=g.mul(point["X"], 2.0), depth=g.mul(point["Y"], 2.0), roundness=0.0,
-                top=g.add(point["Z"], g.mul(p["shelf_thickness"], 0.5)),
-                thickness=p["shelf_thickness"], bevel=0.0, part=SHELF)["Mesh"]
-    return g.switch(p["shelf"], None, slab, data_type="GEOMETRY")
+    with g.part("Shelf"):
+        point = legs.at(p["shelf_height"])
+        slab = seat(g, width=point.x * 2.0, depth=point.y * 2.0, roundness=0.0,
+                    top=point.z + p["shelf_thickness"] * 0.5, thickness=p["shelf_thickness"],
+                    bevel=0.0, part=SHELF)["Mesh"]
+        return g.switch(p["shelf"], None, slab)
 
 
 def _four_legs(t: _Table):
     legs = _Legs(t)
-    g, p = t.g, t.p
-    return g.join([legs.mesh, g.switch(p["aprons"], None, _aprons(legs), data_type="GEOMETRY"),
-                   _stretchers(legs), _shelf(legs)])
+    parts = [legs.mesh, _aprons(legs), _stretchers(legs), _shelf(legs)]
+    with t.g.frame("Four legs"):
+        return t.g.join(parts)
 
 
 # -- pedestal ----------------------------------------------------------------------------------
@@ -202,39 +206,39 @@ def _pedestal(t: _Table):
     """A column from inside the top down to its end: above the floor on feet, or inside a
     round base plate."""
     g, p = t.g, t.p
-    reach = g.mul(g.mul(g.minimum(p["top_width"], p["top_depth"]), 0.5), p["foot_spread"])
-    plate = seat(g, width=g.mul(reach, 2.0), depth=g.mul(reach, 2.0), roundness=1.0,
-                 top=p["base_thickness"], thickness=p["base_thickness"], bevel=BASE_BEVEL,
-                 part=BASE_PLATE)["Mesh"]
-    end = g.switch(p["base_plate"], p["foot_rise"], g.mul(p["base_thickness"], SINK),
-                   data_type="FLOAT")
-    path = g.node("GeometryNodeResampleCurve", {
-        "Curve": g.node("GeometryNodeCurvePrimitiveLine", {
-            "Start": g.combine(0.0, 0.0, t.inside), "End": g.combine(0.0, 0.0, end)}),
-        "Mode": "Count", "Count": 12}).out
-    profile = rectangle_fillet(g, width=2.0, height=2.0, roundness=p["column_roundness"],
-                               resolution=3)["Curve"]
-    column = bezier_segment_style(
-        g, curve=path, profile_curve=profile, start=p["column_top_radius"],
-        start_handle=p["column_top_handle"], end_handle=p["column_bottom_handle"],
-        end=p["column_bottom_radius"], fill_caps=True, part=COLUMN)["Mesh"]
-    base = g.switch(p["base_plate"], _feet(t, reach), plate, data_type="GEOMETRY")
-    return g.join([column, base])
+    with g.part("Base plate"):
+        reach = g.named("reach", g.min(p["top_width"], p["top_depth"]) * 0.5 * p["foot_spread"])
+        plate = seat(g, width=reach * 2.0, depth=reach * 2.0, roundness=1.0,
+                     top=p["base_thickness"], thickness=p["base_thickness"], bevel=BASE_BEVEL,
+                     part=BASE_PLATE)["Mesh"]
+        end = g.named("column end", g.switch(p["base_plate"], p["foot_rise"],
+                                             p["base_thickness"] * SINK))
+    with g.part("Column"):
+        profile = rectangle_fillet(g, width=2.0, height=2.0, roundness=p["column_roundness"],
+                                   resolution=3)["Curve"]
+        column = bezier_segment_style(
+            g, curve=g.line(g.vec(0.0, 0.0, t.inside), g.vec(0.0, 0.0, end), count=12),
+            profile_curve=profile, start=p["column_top_radius"],
+            start_handle=p["column_top_handle"], end_handle=p["column_bottom_handle"],
+            end=p["column_bottom_radius"], fill_caps=True, part=COLUMN)["Mesh"]
+    feet = _feet(t, reach)
+    with g.frame("Pedestal"):
+        return g.join([column, g.switch(p["base_plate"], feet, plate)])
 
 
 def _feet(t: _Table, reach):
     """Radial feet from the column's axis, just above its end, out to the floor; curvature
     1 lifts the middle control point over the toe, so the foot meets the floor vertically."""
     g, p = t.g, t.p
-    hub_z = g.add(p["foot_rise"], p["foot_thickness"])
-    curve = p["foot_curvature"]
-    offset = g.combine(g.mul(g.mul(reach, 0.5), curve), 0.0, g.mul(g.mul(hub_z, 0.5), curve))
-    one = quadratic_cartesian_mesh(g, start=g.combine(0.0, 0.0, hub_z),
-                                   end=g.combine(reach, 0.0, 0.0), offset=offset,
-                                   radius=p["foot_thickness"], roundness=1.0,
-                                   axis=(0.0, 1.0, 0.0), part=FEET)["Mesh"]
-    return radial(g, geometry=one, count=p["foot_count"], radius=0.0,
-                  start_angle=math.pi / 2)["Geometry"]
+    with g.part("Feet"):
+        hub = g.vec(0.0, 0.0, p["foot_rise"] + p["foot_thickness"])
+        toe = g.vec(reach, 0.0, 0.0)
+        one = quadratic_cartesian_mesh(g, start=hub, end=toe,
+                                       offset=(toe + hub) * (p["foot_curvature"] * 0.5),
+                                       radius=p["foot_thickness"], roundness=1.0,
+                                       axis=(0.0, 1.0, 0.0), part=FEET)["Mesh"]
+        return radial(g, geometry=one, count=p["foot_count"], radius=0.0,
+                      start_angle=math.pi / 2)["Geometry"]
 
 
 # -- assembly ----------------------------------------------------------------------------------
@@ -242,9 +246,8 @@ def _feet(t: _Table, reach):
 def build(g: Graph) -> None:
     p = _parameters(g)
     t = _Table(g, p)
-    support = g.switch(p["pedestal"], _four_legs(t), _pedestal(t), data_type="GEOMETRY")
-    table = g.join([t.top["Mesh"], support])
-    # ground it: whatever the parts, the lowest point rests on z = 0
-    lowest = g.separate(g.node("GeometryNodeBoundBox", {"Geometry": table})["Min"])["Z"]
-    g.output("Geometry", "geometry",
-             g.transform(table, translation=g.combine(0.0, 0.0, g.mul(lowest, -1.0))))
+    four_legs, pedestal = _four_legs(t), _pedestal(t)
+    with g.frame("Assembly"):
+        table = g.join([t.mesh, g.switch(p["pedestal"], four_legs, pedestal)])
+        # whatever the parts, the lowest point rests on z = 0
+        g.output("Geometry", "geometry", g.ground(table))
