@@ -8,7 +8,7 @@ import pytest
 
 pytest.importorskip("bpy")
 
-from geocode.program import Program  # noqa: E402
+from geocode.program import Program, part_mesh  # noqa: E402
 from geocode.recipe import Recipe  # noqa: E402
 from geocode.stability import drop_test, loose_parts  # noqa: E402
 
@@ -34,20 +34,8 @@ def label(chair):
     return chair._module
 
 
-def _faces_of(mesh, labels):
-    return np.isin(mesh.metadata["part"], list(labels))
-
-
 def _vertices(mesh, *labels) -> np.ndarray:
-    """Vertices of the faces labelled with any of `labels`."""
-    faces = mesh.faces[_faces_of(mesh, labels)]
-    return mesh.vertices[np.unique(faces)]
-
-
-def _only(mesh, *labels):
-    """The sub-mesh of the faces labelled with any of `labels`."""
-    sub = mesh.submesh([np.flatnonzero(_faces_of(mesh, labels))], append=True)
-    return sub
+    return part_mesh(mesh, *labels).vertices
 
 
 # -- parameters, visibility, recipe ---------------------------------------------------------------
@@ -176,7 +164,7 @@ def test_rails_span_the_backrest_frame_at_any_curvature_and_slant(chair, label, 
         assert rail[:, 0].max() <= frame[:, 0].max() + 1e-6
         assert frame[:, 2].min() - 1e-6 <= rail[:, 2].min()
         assert rail[:, 2].max() <= frame[:, 2].max() + 0.05
-        assert loose_parts(_only(mesh, label.SEAT, label.BACK_FRAME, part)) == 0
+        assert loose_parts(part_mesh(mesh, label.SEAT, label.BACK_FRAME, part)) == 0
 
 
 @pytest.mark.parametrize("arm", [
@@ -196,11 +184,11 @@ def test_armrests_stay_attached_to_the_frame_and_the_seat(chair, label, arm, sha
     mesh = chair.evaluate({**FULL, **shape, **arm})
     arms = (label.ARMRESTS, label.ARM_SUPPORTS, label.ARM_PADS)
     assert len(_vertices(mesh, *arms))
-    assert loose_parts(_only(mesh, label.SEAT, label.BACK_FRAME, *arms)) == 0
+    assert loose_parts(part_mesh(mesh, label.SEAT, label.BACK_FRAME, *arms)) == 0
     # without the frame, the arms of a straight style without support hang free: they
     # are held by the frame, not by chance contacts
     if arm["armrest_style"] == 1 and not arm["armrest_support"]:
-        assert loose_parts(_only(mesh, label.SEAT, *arms)) > 0
+        assert loose_parts(part_mesh(mesh, label.SEAT, *arms)) > 0
 
 
 @pytest.mark.parametrize("count", [3, 6])

@@ -8,7 +8,7 @@ import pytest
 
 pytest.importorskip("bpy")
 
-from geocode.program import Program  # noqa: E402
+from geocode.program import Program, part_mesh  # noqa: E402
 from geocode.recipe import Recipe  # noqa: E402
 from geocode.stability import drop_test, loose_parts  # noqa: E402
 
@@ -36,18 +36,8 @@ def label(table):
     return table._module
 
 
-def _faces_of(mesh, labels):
-    return np.isin(mesh.metadata["part"], list(labels))
-
-
 def _vertices(mesh, *labels) -> np.ndarray:
-    """Vertices of the faces labelled with any of `labels`."""
-    return mesh.vertices[np.unique(mesh.faces[_faces_of(mesh, labels)])]
-
-
-def _only(mesh, *labels):
-    """The sub-mesh of the faces labelled with any of `labels`."""
-    return mesh.submesh([np.flatnonzero(_faces_of(mesh, labels))], append=True)
+    return part_mesh(mesh, *labels).vertices
 
 
 # -- parameters, visibility, recipe ---------------------------------------------------------------
@@ -180,9 +170,9 @@ def test_stretchers_and_shelf_hold_on_to_the_legs(table, label, legs, stretchers
     mesh = table.evaluate({**FULL, **legs, "stretchers": stretchers, "stretcher_height": 0.1,
                            "shelf_height": 0.35})
     for part in (label.STRETCHERS, label.SHELF):
-        assert loose_parts(_only(mesh, label.LEGS, part)) == 0, part
+        assert loose_parts(part_mesh(mesh, label.LEGS, part)) == 0, part
     # without the legs the four shelf corners and stretcher ends hang free
-    assert loose_parts(_only(mesh, label.TOP, label.STRETCHERS)) > 0
+    assert loose_parts(part_mesh(mesh, label.TOP, label.STRETCHERS)) > 0
     stretchers_z = _vertices(mesh, label.STRETCHERS)[:, 2]
     legs_z = _vertices(mesh, label.LEGS)[:, 2]
     assert stretchers_z.mean() < legs_z.min() + 0.2 * (legs_z.max() - legs_z.min())

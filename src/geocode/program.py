@@ -241,6 +241,12 @@ def _checked(parameter: Parameter, value) -> float:
     return number if parameter.kind == "float" else float(round(number))
 
 
+def part_mesh(mesh: trimesh.Trimesh, *labels: int) -> trimesh.Trimesh:
+    """The sub-mesh of the faces of an evaluated `mesh` labelled with any of `labels`."""
+    faces = np.flatnonzero(np.isin(mesh.metadata["part"], labels))
+    return mesh.submesh([faces], append=True)
+
+
 def bench(domain: str, n: int = 200, seed: int = 0, stability: bool = False) -> dict:
     """Random shapes per second (evaluation + OBJ export to a temp dir), the median face
     count, and the fraction of shapes with loose parts or non-finite vertices; with
