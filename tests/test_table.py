@@ -60,6 +60,8 @@ def test_visibility_rules_are_inferred_from_the_switches(table):
                                          "not pedestal and stretchers == 2")
     assert rules["shelf_thickness"] == "not pedestal and shelf"
     assert rules["column_roundness"] == "pedestal"
+    # through the feet (not base_plate) and through the plate (base_plate)
+    assert rules["foot_spread"] == "pedestal"
     assert rules["foot_count"] == "not base_plate and pedestal"
     assert rules["base_thickness"] == "base_plate and pedestal"
 
