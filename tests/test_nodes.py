@@ -43,8 +43,7 @@ def test_input_declares_typed_interface_sockets(blender):
 def test_arithmetic_helpers_compute_in_blender(blender):
     def build(g):
         x = g.input("x", "float", default=3.0)
-        return g.combine(g.add(x, 2), g.mul(g.sub(x, 1), g.div(x, 2)),
-                         g.lerp(10.0, 20.0, 0.25))
+        return g.vec(x + 2, (x - 1) * (x / 2), g.lerp(10.0, 20.0, 0.25))
 
     assert _point(build) == pytest.approx([5.0, 3.0, 12.5])
     assert _point(build, {"x": 1.0}) == pytest.approx([3.0, 0.0, 12.5])
@@ -55,7 +54,7 @@ def test_switches_and_comparisons(blender):
         n = g.input("n", "int", default=0, min=0, max=2)
         flag = g.compare("GREATER_THAN", n, 0, data_type="INT")
         chosen = g.index_switch(n, [1.0, 2.0, 4.0], data_type="FLOAT")
-        return g.combine(g.switch(flag, -1.0, 1.0), chosen, g.map_range(0.5, 0, 1, 0, 8))
+        return g.vec(g.switch(flag, -1.0, 1.0), chosen, g.map_range(0.5, 0, 1, 0, 8))
 
     evaluator = _point_graph(build)
     assert evaluator.mesh({"n": 0}).vertices[0] == pytest.approx([-1, 1, 4])
@@ -64,11 +63,10 @@ def test_switches_and_comparisons(blender):
 
 def test_vector_math_and_separate(blender):
     def build(g):
-        v = g.vmath("CROSS_PRODUCT", (1, 0, 0), (0, 1, 0))
-        length = g.vmath("LENGTH", (3, 4, 0))
-        return g.combine(g.separate(v)["Z"], length, 0)
+        v = g.cross((1, 0, 0), (0, 1, 0))
+        return g.vec(v.z, g.length((3, 4, 0)), g.distance((1, 1, 1), (1, 1, 3)))
 
-    assert _point(build) == pytest.approx([1, 5, 0])
+    assert _point(build) == pytest.approx([1, 5, 2])
 
 
 def test_sockets_are_found_by_name_and_errors_name_the_choices(blender):
@@ -88,12 +86,12 @@ def test_node_group_is_cached_and_rebuilt_after_reset(blender):
         value = g.input("Value", "float", default=0.0)
         amount = g.input("Amount", "float", default=1.0)
         calls.append(1)
-        g.output("Result", "float", g.add(value, amount))
+        g.output("Result", "float", value + amount)
 
     assert offset.tree() is offset.tree()
     assert len(calls) == 1
     assert offset.tree().description == "Adds `Amount` to `Value`."
-    assert _point(lambda g: g.combine(offset(g, value=2.0, amount=0.5)["Result"], 0, 0))[0] \
+    assert _point(lambda g: g.vec(offset(g, value=2.0, amount=0.5)["Result"], 0, 0))[0] \
         == pytest.approx(2.5)
     blender.ops.wm.read_factory_settings(use_empty=True)
     assert offset.tree().name == "TestOffset"
@@ -114,7 +112,7 @@ def test_part_labels_land_on_faces(blender):
 def test_arrange_spreads_nodes_into_columns(blender):
     g = Graph.new("layout")
     x = g.input("x", "float")
-    g.output("y", "float", g.add(g.mul(x, 2), 1))
+    g.output("y", "float", x * 2 + 1)
     g.arrange()
     xs = sorted({node.location.x for node in g.tree.nodes})
     assert len(xs) == 4  # input, multiply, add, output

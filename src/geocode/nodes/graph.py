@@ -177,14 +177,6 @@ def data_type_of(*values: Value, default: str = "FLOAT") -> str:
     return default
 
 
-def _io_node(tree, bl_idname: str) -> bpy.types.Node:
-    """The tree's Group Input or Group Output node, added if missing."""
-    for node in tree.nodes:
-        if node.bl_idname == bl_idname:
-            return node
-    return tree.nodes.new(bl_idname)
-
-
 def is_vector(value: Value) -> bool:
     """Whether `value` is a vector socket or a 3-sequence constant."""
     socket = as_socket(value)
@@ -307,19 +299,33 @@ class Graph:
                                                    socket_type=_INTERFACE_TYPES[outer.type])
             level.parent.tree.links.new(outer, find_socket(level.node.inputs, item.identifier,
                                                            level.node))
-            level.imported[key] = find_socket(_io_node(level.tree, "NodeGroupInput").outputs,
+            level.imported[key] = find_socket(self._io_node(level, "NodeGroupInput").outputs,
                                               item.identifier, level.tree)
         return level.imported[key]
 
     def _export(self, level: _Level, inner) -> bpy.types.NodeSocket:
         key = inner.as_pointer()
         if key not in level.exported:
-            item = level.tree.interface.new_socket(self._crossing_name(inner), in_out="OUTPUT",
+            # a part's geometry is called after the part unless it was given a name
+            name = self._names.get(key) or (level.node.label if inner.type == "GEOMETRY"
+                                            else self._crossing_name(inner))
+            item = level.tree.interface.new_socket(name, in_out="OUTPUT",
                                                    socket_type=_INTERFACE_TYPES[inner.type])
             level.tree.links.new(inner, find_socket(
-                _io_node(level.tree, "NodeGroupOutput").inputs, item.identifier, level.tree))
+                self._io_node(level, "NodeGroupOutput").inputs, item.identifier, level.tree))
             level.exported[key] = find_socket(level.node.outputs, item.identifier, level.node)
         return level.exported[key]
+
+    @staticmethod
+    def _io_node(level: _Level, bl_idname: str) -> bpy.types.Node:
+        """The Group Input or Group Output node of `level`'s tree, added (into the level's
+        open frame) if missing."""
+        for node in level.tree.nodes:
+            if node.bl_idname == bl_idname:
+                return node
+        node = level.tree.nodes.new(bl_idname)
+        node.parent = level.frame
+        return node
 
     # -- nodes and links ----------------------------------------------------------------------
 
@@ -370,15 +376,15 @@ class Graph:
             item.max_value = max
         if default is not None:
             item.default_value = tuple(default) if kind == "vector" else default
-        return Socket(self, find_socket(_io_node(self.tree, "NodeGroupInput").outputs,
+        return Socket(self, find_socket(self._io_node(self._open[-1], "NodeGroupInput").outputs,
                                         item.identifier, self.tree))
 
     def output(self, name: str, kind: str, value: Value) -> None:
         """Expose a group output named `name` and connect `value` to it."""
         item = self.tree.interface.new_socket(name, in_out="OUTPUT",
                                               socket_type=SOCKET_TYPES[kind])
-        target = find_socket(_io_node(self.tree, "NodeGroupOutput").inputs, item.identifier,
-                             self.tree)
+        target = find_socket(self._io_node(self._open[-1], "NodeGroupOutput").inputs,
+                             item.identifier, self.tree)
         self.set(target, value)
 
     # -- arithmetic (the operators of Socket land here) ---------------------------------------
@@ -598,32 +604,6 @@ class Graph:
         """`geometry` moved along z so that its lowest point lies on z = 0."""
         lowest = self.bounding_box(geometry)["Min"].z
         return self.transform(geometry, translation=self.vec(0.0, 0.0, -lowest))
-
-    # -- prefix spellings, kept until vase and chair are rewritten; use the operators -------
-
-    def add(self, a: Value, b: Value) -> Socket:
-        return self.math("ADD", a, b)
-
-    def sub(self, a: Value, b: Value) -> Socket:
-        return self.math("SUBTRACT", a, b)
-
-    def mul(self, a: Value, b: Value) -> Socket:
-        return self.math("MULTIPLY", a, b)
-
-    def div(self, a: Value, b: Value) -> Socket:
-        return self.math("DIVIDE", a, b)
-
-    def minimum(self, a: Value, b: Value) -> Socket:
-        return self.min(a, b)
-
-    def maximum(self, a: Value, b: Value) -> Socket:
-        return self.max(a, b)
-
-    def combine(self, x: Value = 0.0, y: Value = 0.0, z: Value = 0.0) -> Socket:
-        return self.vec(x, y, z)
-
-    def separate(self, vector: Value) -> Node:
-        return self.node("ShaderNodeSeparateXYZ", {"Vector": vector})
 
     # -- layout -----------------------------------------------------------------------------
 

@@ -26,9 +26,8 @@ def rectangle_fillet(g: Graph) -> None:
     resolution = g.input("Resolution", "int", default=6, min=1, max=64)
     rectangle = g.node("GeometryNodeCurvePrimitiveQuadrilateral",
                        {"Width": width, "Height": height}, mode="RECTANGLE")
-    clamped = g.node("ShaderNodeClamp", {"Value": roundness, "Min": _MIN_ROUNDNESS,
-                                         "Max": _MAX_ROUNDNESS}).out
-    radius = g.mul(clamped, g.mul(g.minimum(width, height), 0.5))
+    clamped = g.clamp(roundness, _MIN_ROUNDNESS, _MAX_ROUNDNESS)
+    radius = clamped * (g.min(width, height) * 0.5)
     fillet = g.node("GeometryNodeFilletCurve", {
         "Curve": rectangle, "Radius": radius, "Limit Radius": True, "Mode": "Poly",
         "Count": resolution,
