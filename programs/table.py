@@ -24,7 +24,7 @@ from __future__ import annotations
 import math
 
 from geocode.nodes import Graph, mirror, radial, rectangle_fillet, sample_curve
-from geocode.nodes.parts import leg, quadratic_cartesian_mesh, seat, straight_frame
+from geocode.nodes.parts import leg_mesh, quadratic_cartesian_mesh, seat, straight_frame
 from geocode.nodes.styles import bezier_segment_style
 
 # part labels (segmentation)
@@ -87,51 +87,47 @@ def _parameters(g: Graph) -> dict:
 
 
 class _Table:
-    """Quantities shared between parts, so that every attached part follows edits."""
+    """Quantities shared between parts, so that every attached part follows edits: the
+    top's corner and heights, and the reach of a pedestal's feet or plate."""
 
     def __init__(self, g: Graph, p: dict):
         self.g, self.p = g, p
-        with g.part("Top"):
-            top = seat(g, width=p["top_width"], depth=p["top_depth"],
-                       roundness=p["top_roundness"], top=p["top_height"],
-                       thickness=p["top_thickness"], bevel=p["top_bevel"], part=TOP)
-            self.mesh, self.corner = top["Mesh"], top["Corner"]
-            # attachments start inside the slab: halfway down from its top
-            self.inside = g.named("inside", p["top_height"] - p["top_thickness"] * SINK)
-            self.underside = g.named("underside", p["top_height"] - p["top_thickness"])
+        top = seat(g, width=p["top_width"], depth=p["top_depth"], roundness=p["top_roundness"],
+                   top=p["top_height"], thickness=p["top_thickness"], bevel=p["top_bevel"],
+                   part=TOP)
+        self.mesh, self.corner = top["Mesh"], top["Corner"]
+        # attachments start inside the slab: halfway down from its top
+        self.inside = g.named("inside", p["top_height"] - p["top_thickness"] * SINK)
+        self.underside = g.named("underside", p["top_height"] - p["top_thickness"])
+        self.reach = g.named("reach", g.min(p["top_width"], p["top_depth"]) * 0.5
+                             * p["foot_spread"])
 
 
 # -- four legs ---------------------------------------------------------------------------------
 
 class _Legs:
-    """The +x +y leg (its axis from under the top's corner to its foot) and the parts that
-    span the four legs; the other legs are its mirror images."""
+    """The +x +y leg, from under the top's corner to its foot (the other three are its
+    mirror images), and its axis, on which stretchers and shelf are attached."""
 
     def __init__(self, t: _Table):
         g, p = t.g, t.p
         self.t = t
-        with g.part("Legs"):
-            inset = p["leg_thickness"] * LEG_INSET
-            self.x = g.named("leg x", t.corner.x * (1.0 - p["leg_inset"]) - inset)
-            self.y = g.named("leg y", t.corner.y * (1.0 - p["leg_inset"]) - inset)
-            splay = p["leg_splay"]
-            one = leg(g, top=g.vec(self.x, self.y, t.inside),
-                      bottom=g.vec(self.x + splay, self.y + splay, 0.0),
-                      curvature=p["leg_curvature"], top_radius=p["leg_thickness"],
-                      bottom_radius=p["leg_thickness"] * p["leg_taper"],
-                      roundness=p["leg_bevel"], part=LEGS)
-            self.axis = g.named("leg axis", one["Curve"])
-            self.mesh = _four(g, one["Mesh"])
+        inset = p["leg_thickness"] * LEG_INSET
+        self.x = g.named("leg x", t.corner.x * (1.0 - p["leg_inset"]) - inset)
+        self.y = g.named("leg y", t.corner.y * (1.0 - p["leg_inset"]) - inset)
+        splay = p["leg_splay"]
+        one = leg_mesh(g, top=g.vec(self.x, self.y, t.inside),
+                       bottom=g.vec(self.x + splay, self.y + splay, 0.0),
+                       curvature=p["leg_curvature"], top_radius=p["leg_thickness"],
+                       bottom_radius=p["leg_thickness"] * p["leg_taper"],
+                       roundness=p["leg_bevel"], part=LEGS)
+        self.axis = g.named("leg axis", one["Curve"])
+        self.mesh = mirror(g, geometry=mirror(g, geometry=one["Mesh"], axis=0)["Geometry"],
+                           axis=1)["Geometry"]
 
     def at(self, share):
         """The point of the +x +y leg's axis at `share` of its length from the foot."""
         return sample_curve(self.t.g, curve=self.axis, factor=1.0 - share)["Position"]
-
-
-def _four(g: Graph, geometry):
-    """`geometry` and its mirror images across x = 0 and y = 0."""
-    return mirror(g, geometry=mirror(g, geometry=geometry, axis=0)["Geometry"],
-                  axis=1)["Geometry"]
 
 
 def _bar(g: Graph, start, end, width, depth, roundness, part):
@@ -144,20 +140,19 @@ def _aprons(legs: _Legs):
     `apron_inset` moves them from the legs' outer faces to their inner faces."""
     t = legs.t
     g, p = t.g, t.p
-    with g.part("Aprons"):
-        bottom = t.underside - p["apron_height"]
-        height = t.inside - bottom
-        z = (t.inside + bottom) * 0.5
-        # from the leg's axis to the apron's middle: the outer faces flush at inset 0
-        shift = (p["leg_thickness"] - p["apron_thickness"] * 0.5) * (1.0 - p["apron_inset"] * 2.0)
-        x, y = legs.x + shift, legs.y + shift
-        side = _bar(g, g.vec(x, -legs.y, z), g.vec(x, legs.y, z), height,
-                    p["apron_thickness"], 0.0, APRONS)
-        end = _bar(g, g.vec(-legs.x, y, z), g.vec(legs.x, y, z), height,
-                   p["apron_thickness"], 0.0, APRONS)
-        aprons = g.join([mirror(g, geometry=side, axis=0)["Geometry"],
-                         mirror(g, geometry=end, axis=1)["Geometry"]])
-        return g.switch(p["aprons"], None, aprons)
+    bottom = t.underside - p["apron_height"]
+    height = t.inside - bottom
+    z = (t.inside + bottom) * 0.5
+    # from the leg's axis to the apron's middle: the outer faces flush at inset 0
+    shift = (p["leg_thickness"] - p["apron_thickness"] * 0.5) * (1.0 - p["apron_inset"] * 2.0)
+    x, y = legs.x + shift, legs.y + shift
+    side = _bar(g, g.vec(x, -legs.y, z), g.vec(x, legs.y, z), height, p["apron_thickness"],
+                0.0, APRONS)
+    end = _bar(g, g.vec(-legs.x, y, z), g.vec(legs.x, y, z), height, p["apron_thickness"],
+               0.0, APRONS)
+    aprons = g.join([mirror(g, geometry=side, axis=0)["Geometry"],
+                     mirror(g, geometry=end, axis=1)["Geometry"]])
+    return g.switch(p["aprons"], None, aprons)
 
 
 def _stretchers(legs: _Legs):
@@ -165,89 +160,92 @@ def _stretchers(legs: _Legs):
     between points sampled on the legs' axes."""
     t = legs.t
     g, p = t.g, t.p
-    with g.part("Stretchers"):
-        point = legs.at(p["stretcher_height"])
-        x, y, z = point.x, point.y, point.z
-        size = p["stretcher_thickness"] * 2.0
+    point = legs.at(p["stretcher_height"])
+    x, y, z = point.x, point.y, point.z
+    size = p["stretcher_thickness"] * 2.0
 
-        def bar(start, end):
-            return _bar(g, start, end, size, size, p["stretcher_roundness"], STRETCHERS)
+    def bar(start, end):
+        return _bar(g, start, end, size, size, p["stretcher_roundness"], STRETCHERS)
 
-        side = bar(g.vec(x, -y, z), point)
-        across = bar(g.vec(-x, 0.0, z), g.vec(x, 0.0, z))
-        h = g.join([mirror(g, geometry=side, axis=0)["Geometry"], across])
-        diagonal = bar(point, g.vec(-x, -y, z))
-        x_shape = mirror(g, geometry=diagonal, axis=0)["Geometry"]
-        return g.index_switch(p["stretchers"], [None, h, x_shape])
+    side = mirror(g, geometry=bar(g.vec(x, -y, z), point), axis=0)["Geometry"]
+    h_shape = g.join([side, bar(g.vec(-x, 0.0, z), g.vec(x, 0.0, z))])
+    x_shape = mirror(g, geometry=bar(point, g.vec(-x, -y, z)), axis=0)["Geometry"]
+    return g.index_switch(p["stretchers"], [None, h_shape, x_shape])
 
 
 def _shelf(legs: _Legs):
     """A slab whose corners lie on the legs' axes, at a point sampled on them."""
     t = legs.t
     g, p = t.g, t.p
-    with g.part("Shelf"):
-        point = legs.at(p["shelf_height"])
-        slab = seat(g, width=point.x * 2.0, depth=point.y * 2.0, roundness=0.0,
-                    top=point.z + p["shelf_thickness"] * 0.5, thickness=p["shelf_thickness"],
-                    bevel=0.0, part=SHELF)["Mesh"]
-        return g.switch(p["shelf"], None, slab)
-
-
-def _four_legs(t: _Table):
-    legs = _Legs(t)
-    parts = [legs.mesh, _aprons(legs), _stretchers(legs), _shelf(legs)]
-    with t.g.frame("Four legs"):
-        return t.g.join(parts)
+    point = legs.at(p["shelf_height"])
+    slab = seat(g, width=point.x * 2.0, depth=point.y * 2.0, roundness=0.0,
+                top=point.z + p["shelf_thickness"] * 0.5, thickness=p["shelf_thickness"],
+                bevel=0.0, part=SHELF)["Mesh"]
+    return g.switch(p["shelf"], None, slab)
 
 
 # -- pedestal ----------------------------------------------------------------------------------
 
-def _pedestal(t: _Table):
-    """A column from inside the top down to its end: above the floor on feet, or inside a
-    round base plate."""
+def _column(t: _Table):
+    """A column from inside the top down to its end: above the floor on feet, or inside the
+    base plate; its silhouette is a Bezier profile."""
     g, p = t.g, t.p
-    with g.part("Base plate"):
-        reach = g.named("reach", g.min(p["top_width"], p["top_depth"]) * 0.5 * p["foot_spread"])
-        plate = seat(g, width=reach * 2.0, depth=reach * 2.0, roundness=1.0,
-                     top=p["base_thickness"], thickness=p["base_thickness"], bevel=BASE_BEVEL,
-                     part=BASE_PLATE)["Mesh"]
-        end = g.named("column end", g.switch(p["base_plate"], p["foot_rise"],
-                                             p["base_thickness"] * SINK))
-    with g.part("Column"):
-        profile = rectangle_fillet(g, width=2.0, height=2.0, roundness=p["column_roundness"],
-                                   resolution=3)["Curve"]
-        column = bezier_segment_style(
-            g, curve=g.line(g.vec(0.0, 0.0, t.inside), g.vec(0.0, 0.0, end), count=12),
-            profile_curve=profile, start=p["column_top_radius"],
-            start_handle=p["column_top_handle"], end_handle=p["column_bottom_handle"],
-            end=p["column_bottom_radius"], fill_caps=True, part=COLUMN)["Mesh"]
-    feet = _feet(t, reach)
-    with g.frame("Pedestal"):
-        return g.join([column, g.switch(p["base_plate"], feet, plate)])
+    end = g.switch(p["base_plate"], p["foot_rise"], p["base_thickness"] * SINK)
+    profile = rectangle_fillet(g, width=2.0, height=2.0, roundness=p["column_roundness"],
+                               resolution=3)["Curve"]
+    return bezier_segment_style(
+        g, curve=g.line(g.vec(0.0, 0.0, t.inside), g.vec(0.0, 0.0, end), count=12),
+        profile_curve=profile, start=p["column_top_radius"],
+        start_handle=p["column_top_handle"], end_handle=p["column_bottom_handle"],
+        end=p["column_bottom_radius"], fill_caps=True, part=COLUMN)["Mesh"]
 
 
-def _feet(t: _Table, reach):
+def _feet(t: _Table):
     """Radial feet from the column's axis, just above its end, out to the floor; curvature
     1 lifts the middle control point over the toe, so the foot meets the floor vertically."""
     g, p = t.g, t.p
-    with g.part("Feet"):
-        hub = g.vec(0.0, 0.0, p["foot_rise"] + p["foot_thickness"])
-        toe = g.vec(reach, 0.0, 0.0)
-        one = quadratic_cartesian_mesh(g, start=hub, end=toe,
-                                       offset=(toe + hub) * (p["foot_curvature"] * 0.5),
-                                       radius=p["foot_thickness"], roundness=1.0,
-                                       axis=(0.0, 1.0, 0.0), part=FEET)["Mesh"]
-        return radial(g, geometry=one, count=p["foot_count"], radius=0.0,
-                      start_angle=math.pi / 2)["Geometry"]
+    hub = g.vec(0.0, 0.0, p["foot_rise"] + p["foot_thickness"])
+    toe = g.vec(t.reach, 0.0, 0.0)
+    one = quadratic_cartesian_mesh(g, start=hub, end=toe,
+                                   offset=(toe + hub) * (p["foot_curvature"] * 0.5),
+                                   radius=p["foot_thickness"], roundness=1.0,
+                                   axis=(0.0, 1.0, 0.0), part=FEET)["Mesh"]
+    return radial(g, geometry=one, count=p["foot_count"], radius=0.0,
+                  start_angle=math.pi / 2)["Geometry"]
+
+
+def _base_plate(t: _Table):
+    """A round plate on the floor, as wide as the feet would reach."""
+    g, p = t.g, t.p
+    return seat(g, width=t.reach * 2.0, depth=t.reach * 2.0, roundness=1.0,
+                top=p["base_thickness"], thickness=p["base_thickness"], bevel=BASE_BEVEL,
+                part=BASE_PLATE)["Mesh"]
 
 
 # -- assembly ----------------------------------------------------------------------------------
 
 def build(g: Graph) -> None:
-    p = _parameters(g)
-    t = _Table(g, p)
-    four_legs, pedestal = _four_legs(t), _pedestal(t)
+    with g.frame("Parameters"):
+        p = _parameters(g)
+    with g.part("Top"):
+        t = _Table(g, p)
+    with g.part("Legs"):
+        legs = _Legs(t)
+    with g.part("Aprons"):
+        aprons = _aprons(legs)
+    with g.part("Stretchers"):
+        stretchers = _stretchers(legs)
+    with g.part("Shelf"):
+        shelf = _shelf(legs)
+    with g.part("Column"):
+        column = _column(t)
+    with g.part("Feet"):
+        feet = _feet(t)
+    with g.part("Base Plate"):
+        plate = _base_plate(t)
     with g.frame("Assembly"):
+        four_legs = g.join([legs.mesh, aprons, stretchers, shelf])
+        pedestal = g.join([column, g.switch(p["base_plate"], feet, plate)])
         table = g.join([t.mesh, g.switch(p["pedestal"], four_legs, pedestal)])
         # whatever the parts, the lowest point rests on z = 0
         g.output("Geometry", "geometry", g.ground(table))
