@@ -195,15 +195,21 @@ def test_x_stretchers_run_along_the_diagonals_and_h_stretchers_along_sides_and_m
     assert on_side.any() and (~on_side).any()
 
 
-@pytest.mark.parametrize("count", [3, 6])
-def test_pedestal_feet_carry_the_column_above_the_floor(table, label, count):
-    mesh = table.evaluate({**FEET, "foot_count": count, "foot_spread": 0.9,
-                           "foot_rise": 0.2, "top_width": 1.0, "top_depth": 1.0})
+@pytest.mark.parametrize("count, spread, width, depth", [(3, 0.9, 1.0, 1.0),
+                                                       (6, 0.5, 0.8, 0.6)])
+def test_pedestal_feet_carry_the_column_above_the_floor(table, label, count, spread, width,
+                                                        depth):
+    mesh = table.evaluate({**FEET, "foot_count": count, "foot_spread": spread,
+                           "foot_rise": 0.2, "top_width": width, "top_depth": depth,
+                           "column_bottom_radius": 0.12, "column_bottom_handle": 0.12})
     feet = _vertices(mesh, label.FEET)
     toes = feet[feet[:, 2] < 0.01]
-    assert np.linalg.norm(toes[:, :2], axis=1).max() == pytest.approx(0.45, abs=0.04)
+    reach = np.linalg.norm(toes[:, :2], axis=1).max()
+    assert reach == pytest.approx(min(width, depth) / 2 * spread, abs=0.04)
     column = _vertices(mesh, label.COLUMN)
     assert column[:, 2].min() > 0.15
+    # the toes reach out beyond the widest column's foot
+    assert reach > np.linalg.norm(column[:, :2], axis=1).max()
     assert loose_parts(mesh) == 0
 
 
