@@ -8,15 +8,16 @@ parameter combination):
 - four legs (MeshLeg: straight or curved, tapered, square to round, splayed) hang from under
   the corners, starting inside the slab, so raising the top moves them with it; they are
   built for the +x +y corner and mirrored in x and y;
-- aprons: bars under the top from leg to leg, reaching up into the slab, set from flush with
-  the legs' outer faces to flush with their inner faces;
-- stretchers (none, H or X) and a lower shelf attach to the legs by curve sampling: at a
-  share of each leg's length, measured from the foot, on the leg's own axis;
+- aprons: bars (MeshStraightFrame) under the top from leg to leg, reaching up into the slab,
+  set from flush with the legs' outer faces to flush with their inner faces;
+- stretchers (none, H or X bars) and a lower shelf (MeshSeat) attach to the legs by curve
+  sampling (SampleCurve): at a share of each leg's length, measured from the foot, on the
+  leg's own axis, so they follow the legs' curvature and splay;
 - or a pedestal: a column whose silhouette is a Bezier profile (StyleBezierSegment) on
   radial feet (MeshQuadraticCartesian, arched by their curvature) or on a round base plate;
 - the table is grounded so that its lowest point lies on z = 0.
-Selectors reach the geometry only through Switch / Index Switch nodes, so visibility rules
-are inferred from the graph.
+Each part is a named node group in the .blend (`g.part`). Selectors reach the geometry only
+through Switch / Index Switch nodes, so visibility rules are inferred from the graph.
 """
 
 from __future__ import annotations
