@@ -249,8 +249,10 @@ def _pedestal(body: _Body):
 
 
 def _legs(body: _Body):
-    """`leg_count` legs (radial copies from 45 degrees), each from (0.6 `base_width`, 0,
-    `foot_height`) down to the floor, its foot spread outwards by `leg_splay`."""
+    """`leg_count` legs (radial copies from 45 degrees), each a quadratic curve from
+    (0.6 `base_width`, 0, `foot_height` + `OVERLAP`) down to the floor, its foot spread
+    outwards by `leg_splay` and its middle bowed out by 0.3 `leg_splay`; tapering to 0.7 of
+    `leg_thickness` at the foot."""
     g, p = body.g, body.p
     x = p["base_width"] * 0.6
     start = g.vec(x, 0.0, p["foot_height"] + OVERLAP)

@@ -5,7 +5,7 @@ import pytest
 
 pytest.importorskip("bpy")
 
-from geocode.program import Program  # noqa: E402
+from geocode.program import Program, registry  # noqa: E402
 
 pytestmark = pytest.mark.blender
 
@@ -21,7 +21,7 @@ def _is_named_part(node) -> bool:
         and node.node_tree is not None
 
 
-@pytest.mark.parametrize("domain", ["vase", "chair", "table"])
+@pytest.mark.parametrize("domain", registry())
 def test_top_level_is_small_and_every_node_is_in_a_part_or_a_frame(domain):
     tree = Program.load(domain).tree
     nodes = _top_level(tree)
