@@ -17,7 +17,8 @@ overall scale. Structure (every part touches the rest for every parameter combin
   and a pad, or a loop (MeshQuadraticPolarFrame) from the frame down into the seat;
 - the chair is scaled per axis and grounded so that its lowest point lies on z = 0.
 Selectors reach the geometry only through Switch / Index Switch nodes, so visibility rules
-are inferred from the graph.
+are inferred from the graph. In Blender's node editor each part is a node group: Seat,
+Back Frame, Cushion, Legs, Monoleg, Backrest, Armrests.
 """
 
 from __future__ import annotations

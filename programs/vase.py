@@ -10,7 +10,8 @@ Structure (every part touches the rest for every parameter combination):
 - lid and knob on the lip, a rim around the lip, a band around the body;
 - foot: none, a pedestal, or radially placed legs; the whole vase is then grounded so that
   its lowest point lies on z = 0.
-Part labels: body 1, rim 2, band 3, handle 4, lid 5, knob 6, foot 7.
+Part labels: body 1, rim 2, band 3, handle 4, lid 5, knob 6, foot 7. In Blender's node
+editor each part is a node group: Body, Lip Rim, Band, Handles, Lid, Pedestal, Legs.
 """
 
 from __future__ import annotations
