@@ -1,39 +1,22 @@
 """The table program: parameters, inferred visibility, recipe, and its structural rules (each
 rule: change one parameter, check the geometric consequence)."""
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
 pytest.importorskip("bpy")
 
-from geocode.program import Program, part_mesh  # noqa: E402
-from geocode.recipe import Recipe  # noqa: E402
+from geocode.program import part_mesh  # noqa: E402
 from geocode.stability import drop_test, loose_parts  # noqa: E402
 
 pytestmark = pytest.mark.blender
 
-ROOT = Path(__file__).resolve().parents[1]
+DOMAIN = "table"  # the `program` and `label` fixtures (conftest.py) load it
 # four legs with every part between them
 FULL = {"pedestal": 0, "aprons": 1, "stretchers": 1, "shelf": 1, "stretcher_height": 0.4,
         "shelf_height": 0.15}
 FEET = {"pedestal": 1, "base_plate": 0}
 PLATE = {"pedestal": 1, "base_plate": 1}
-
-
-@pytest.fixture(scope="module")
-def table():
-    import bpy
-
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    return Program.load("table")
-
-
-@pytest.fixture(scope="module")
-def label(table):
-    """Part label constants of the program module (TOP, LEGS, ...)."""
-    return table._module
 
 
 def _vertices(mesh, *labels) -> np.ndarray:
@@ -42,17 +25,17 @@ def _vertices(mesh, *labels) -> np.ndarray:
 
 # -- parameters, visibility, recipe ---------------------------------------------------------------
 
-def test_parameters_match_the_paper_counts(table):
-    kinds = [p.kind for p in table.parameters]
+def test_parameters_match_the_paper_counts(program):
+    kinds = [p.kind for p in program.parameters]
     assert len(kinds) == 36
     assert kinds.count("float") == 30 and len(kinds) - kinds.count("float") == 6
-    for p in table.parameters:
+    for p in program.parameters:
         assert p.description and p.min <= p.default <= p.max, p.name
 
 
-def test_visibility_rules_are_inferred_from_the_switches(table):
+def test_visibility_rules_are_inferred_from_the_switches(program):
     rules = {name: None if rule is None else str(rule)
-             for name, rule in table.visibility().items()}
+             for name, rule in program.visibility().items()}
     assert rules["top_height"] is None and rules["pedestal"] is None
     assert rules["leg_splay"] == "not pedestal"
     assert rules["apron_inset"] == "aprons and not pedestal"
@@ -75,50 +58,50 @@ def test_visibility_rules_are_inferred_from_the_switches(table):
     (PLATE, {"foot_count": 3, "foot_rise": 0.2}),
     (FEET, {"base_thickness": 0.06}),
 ])
-def test_invisible_parameters_leave_the_mesh_unchanged(table, hidden, change):
-    before = table.evaluate(hidden)
-    after = table.evaluate({**hidden, **change})
+def test_invisible_parameters_leave_the_mesh_unchanged(program, hidden, change):
+    before = program.evaluate(hidden)
+    after = program.evaluate({**hidden, **change})
     assert np.array_equal(before.vertices, after.vertices)
 
 
-def test_recipe_loads_against_the_program(table):
-    recipe = Recipe.load(ROOT / "programs" / "table.yaml", table.parameters, table.visibility())
-    assert {p.name for p in recipe.parameters} == {p.name for p in table.parameters}
+def test_recipe_loads_against_the_program(program):
+    recipe = program.recipe()
+    assert {p.name for p in recipe.parameters} == {p.name for p in program.parameters}
     for p in recipe.parameters:
         if p.kind == "float":
             assert 3 <= p.samples <= 5, p.name
 
 
-def test_every_part_carries_its_own_label(table, label):
-    assert set(table.evaluate(FULL).metadata["part"]) == {
+def test_every_part_carries_its_own_label(program, label):
+    assert set(program.evaluate(FULL).metadata["part"]) == {
         label.TOP, label.LEGS, label.APRONS, label.STRETCHERS, label.SHELF}
-    assert set(table.evaluate(FEET).metadata["part"]) == {label.TOP, label.COLUMN, label.FEET}
-    assert set(table.evaluate(PLATE).metadata["part"]) == {label.TOP, label.COLUMN,
+    assert set(program.evaluate(FEET).metadata["part"]) == {label.TOP, label.COLUMN, label.FEET}
+    assert set(program.evaluate(PLATE).metadata["part"]) == {label.TOP, label.COLUMN,
                                                            label.BASE_PLATE}
 
 
-def _moves(table, layout, parameter) -> bool:
+def _moves(program, layout, parameter) -> bool:
     """Whether some vertex moves when `parameter` goes from its min to its max."""
-    low = table.evaluate({**layout, parameter.name: parameter.min})
-    high = table.evaluate({**layout, parameter.name: parameter.max})
+    low = program.evaluate({**layout, parameter.name: parameter.min})
+    high = program.evaluate({**layout, parameter.name: parameter.max})
     return (low.vertices.shape != high.vertices.shape
             or not np.allclose(low.vertices, high.vertices, atol=1e-6))
 
 
-def test_every_parameter_changes_the_mesh_somewhere(table):
+def test_every_parameter_changes_the_mesh_somewhere(program):
     """Each parameter, from its min to its max, moves some vertex in one of the layouts
     (four legs with every part, with X stretchers, a pedestal on feet, on a plate)."""
     layouts = [FULL, {**FULL, "stretchers": 2}, FEET, PLATE]
-    for p in table.parameters:
-        assert any(_moves(table, layout, p) for layout in layouts), p.name
+    for p in program.parameters:
+        assert any(_moves(program, layout, p) for layout in layouts), p.name
 
 
 # -- structural rules ------------------------------------------------------------------------------
 
-def test_raising_the_top_moves_legs_aprons_stretchers_and_shelf(table, label):
+def test_raising_the_top_moves_legs_aprons_stretchers_and_shelf(program, label):
     # straight, upright legs: their top faces stay level
-    low = table.evaluate({**FULL, "leg_splay": 0.0, "top_height": 0.6})
-    high = table.evaluate({**FULL, "leg_splay": 0.0, "top_height": 0.85})
+    low = program.evaluate({**FULL, "leg_splay": 0.0, "top_height": 0.6})
+    high = program.evaluate({**FULL, "leg_splay": 0.0, "top_height": 0.85})
 
     def top_of(mesh, part):
         return _vertices(mesh, part)[:, 2].max()
@@ -136,10 +119,10 @@ def test_raising_the_top_moves_legs_aprons_stretchers_and_shelf(table, label):
         assert loose_parts(mesh) == 0
 
 
-def test_rounder_top_pulls_the_legs_inwards_under_it(table, label):
+def test_rounder_top_pulls_the_legs_inwards_under_it(program, label):
     values = {"top_width": 1.0, "top_depth": 1.0, "leg_splay": 0.0, "leg_inset": 0.0}
-    square = table.evaluate({**values, "top_roundness": 0.0})
-    round_ = table.evaluate({**values, "top_roundness": 1.0})
+    square = program.evaluate({**values, "top_roundness": 0.0})
+    round_ = program.evaluate({**values, "top_roundness": 1.0})
     s, r = _vertices(square, label.LEGS), _vertices(round_, label.LEGS)
     assert r[:, 0].max() < s[:, 0].max() - 0.05
     assert r[:, 1].max() < s[:, 1].max() - 0.05
@@ -150,9 +133,9 @@ def test_rounder_top_pulls_the_legs_inwards_under_it(table, label):
 
 
 @pytest.mark.parametrize("inset, face", [(0.0, "outer"), (1.0, "inner")])
-def test_apron_inset_moves_the_aprons_from_the_outer_to_the_inner_faces(table, label, inset,
+def test_apron_inset_moves_the_aprons_from_the_outer_to_the_inner_faces(program, label, inset,
                                                                        face):
-    mesh = table.evaluate({"apron_inset": inset, "leg_splay": 0.0, "leg_taper": 1.0})
+    mesh = program.evaluate({"apron_inset": inset, "leg_splay": 0.0, "leg_taper": 1.0})
     legs, aprons = _vertices(mesh, label.LEGS), _vertices(mesh, label.APRONS)
     right_leg = legs[legs[:, 0] > 0]
     right_apron = aprons[(aprons[:, 0] > 0) & (np.abs(aprons[:, 1]) < 0.2)]
@@ -168,8 +151,8 @@ def test_apron_inset_moves_the_aprons_from_the_outer_to_the_inner_faces(table, l
     {"leg_curvature": 0.5, "leg_splay": 0.0, "top_roundness": 1.0, "leg_inset": 0.3},
 ])
 @pytest.mark.parametrize("stretchers", [1, 2])
-def test_stretchers_and_shelf_hold_on_to_the_legs(table, label, legs, stretchers):
-    mesh = table.evaluate({**FULL, **legs, "stretchers": stretchers, "stretcher_height": 0.1,
+def test_stretchers_and_shelf_hold_on_to_the_legs(program, label, legs, stretchers):
+    mesh = program.evaluate({**FULL, **legs, "stretchers": stretchers, "stretcher_height": 0.1,
                            "shelf_height": 0.35})
     for part in (label.STRETCHERS, label.SHELF):
         assert loose_parts(part_mesh(mesh, label.LEGS, part)) == 0, part
@@ -181,10 +164,10 @@ def test_stretchers_and_shelf_hold_on_to_the_legs(table, label, legs, stretchers
 
 
 def test_x_stretchers_run_along_the_diagonals_and_h_stretchers_along_sides_and_middle(
-        table, label):
+        program, label):
     values = {**FULL, "stretcher_thickness": 0.01, "leg_splay": 0.0, "leg_curvature": 0.0}
-    x = _vertices(table.evaluate({**values, "stretchers": 2}), label.STRETCHERS)
-    h = _vertices(table.evaluate({**values, "stretchers": 1}), label.STRETCHERS)
+    x = _vertices(program.evaluate({**values, "stretchers": 2}), label.STRETCHERS)
+    h = _vertices(program.evaluate({**values, "stretchers": 1}), label.STRETCHERS)
     px, py = np.abs(x[:, :2]).max(0)
     # X: every vertex within a stretcher's half-diagonal of one of the lines y = +-py/px x
     off_diagonal = np.abs(np.abs(x[:, 1]) * px - np.abs(x[:, 0]) * py) / np.hypot(px, py)
@@ -197,9 +180,9 @@ def test_x_stretchers_run_along_the_diagonals_and_h_stretchers_along_sides_and_m
 
 @pytest.mark.parametrize("count, spread, width, depth", [(3, 0.9, 1.0, 1.0),
                                                        (6, 0.5, 0.8, 0.6)])
-def test_pedestal_feet_carry_the_column_above_the_floor(table, label, count, spread, width,
+def test_pedestal_feet_carry_the_column_above_the_floor(program, label, count, spread, width,
                                                         depth):
-    mesh = table.evaluate({**FEET, "foot_count": count, "foot_spread": spread,
+    mesh = program.evaluate({**FEET, "foot_count": count, "foot_spread": spread,
                            "foot_rise": 0.2, "top_width": width, "top_depth": depth,
                            "column_bottom_radius": 0.12, "column_bottom_handle": 0.12})
     feet = _vertices(mesh, label.FEET)
@@ -213,8 +196,8 @@ def test_pedestal_feet_carry_the_column_above_the_floor(table, label, count, spr
     assert loose_parts(mesh) == 0
 
 
-def test_base_plate_is_a_disc_on_the_floor(table, label):
-    mesh = table.evaluate({**PLATE, "foot_spread": 0.5, "top_width": 1.6, "top_depth": 1.2,
+def test_base_plate_is_a_disc_on_the_floor(program, label):
+    mesh = program.evaluate({**PLATE, "foot_spread": 0.5, "top_width": 1.6, "top_depth": 1.2,
                            "base_thickness": 0.05})
     plate = _vertices(mesh, label.BASE_PLATE)
     assert plate[:, 2].min() == pytest.approx(0.0, abs=1e-6)
@@ -223,17 +206,17 @@ def test_base_plate_is_a_disc_on_the_floor(table, label):
     assert loose_parts(mesh) == 0
 
 
-def test_random_tables_are_whole_finite_and_grounded(table):
+def test_random_tables_are_whole_finite_and_grounded(program):
     rng = np.random.default_rng(7)
     for _ in range(100):
-        values = table.random_values(rng)
-        mesh = table.evaluate(values)
+        values = program.random_values(rng)
+        mesh = program.evaluate(values)
         assert np.isfinite(mesh.vertices).all(), values
         assert mesh.vertices[:, 2].min() == pytest.approx(0.0, abs=1e-6), values
         assert loose_parts(mesh) == 0, values
 
 
-def test_random_tables_survive_the_drop_test(table):
+def test_random_tables_survive_the_drop_test(program):
     rng = np.random.default_rng(11)
-    stable = [drop_test(table.evaluate(table.random_values(rng)))["stable"] for _ in range(12)]
+    stable = [drop_test(program.evaluate(program.random_values(rng)))["stable"] for _ in range(12)]
     assert all(stable)
