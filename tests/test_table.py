@@ -206,17 +206,13 @@ def test_base_plate_is_a_disc_on_the_floor(program, label):
     assert loose_parts(mesh) == 0
 
 
-def test_random_tables_are_whole_finite_and_grounded(program):
+def test_random_tables_are_finite_grounded_whole_and_stand(program):
+    """Unlike chairs, every table stands: four symmetric legs or a centred pedestal."""
     rng = np.random.default_rng(7)
-    for _ in range(100):
+    for _ in range(24):
         values = program.random_values(rng)
         mesh = program.evaluate(values)
         assert np.isfinite(mesh.vertices).all(), values
         assert mesh.vertices[:, 2].min() == pytest.approx(0.0, abs=1e-6), values
-        assert loose_parts(mesh) == 0, values
-
-
-def test_random_tables_survive_the_drop_test(program):
-    rng = np.random.default_rng(11)
-    stable = [drop_test(program.evaluate(program.random_values(rng)))["stable"] for _ in range(12)]
-    assert all(stable)
+        result = drop_test(mesh)
+        assert result["loose_parts"] == 0 and result["stable"], values
