@@ -63,7 +63,7 @@ def vase_radius(g: Graph) -> None:
 
 
 class _Body:
-    """The body's shared quantities, so that every attached part follows edits."""
+    """Quantities of the body that its parts are placed from, so that they follow edits."""
 
     def __init__(self, g: Graph, p: dict):
         self.g, self.p = g, p

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import re
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -31,6 +32,28 @@ def programs_dir() -> Path:
     return repo_root() / "programs"
 
 
+def registry() -> list[str]:
+    """The domains, sorted: every program `<domain>.py` with its recipe `<domain>.yaml` beside it
+    (names starting with `_` are helpers, not programs)."""
+    return sorted(p.stem for p in programs_dir().glob("*.py")
+                  if not p.stem.startswith("_") and p.with_suffix(".yaml").exists())
+
+
+def recipe_path(domain: str) -> Path:
+    return programs_dir() / f"{domain}.yaml"
+
+
+def _register_domains() -> None:
+    """The `domain` config group, one option per registry domain (`domain=chair` sets
+    domain.name), so that a new domain needs its program and recipe and nothing in conf/."""
+    from hydra.core.config_store import ConfigStore
+
+    store = ConfigStore.instance()
+    store.repo.pop("domain", None)  # the registry may have changed since the last compose
+    for domain in registry():
+        store.store(group="domain", name=domain, node={"name": domain})
+
+
 def compose(overrides: Sequence[str] = ()) -> DictConfig:
     """The composed config, as `geocode <step> key=value ...` and the Snakefile both see it."""
     from hydra import compose as hydra_compose
@@ -39,11 +62,17 @@ def compose(overrides: Sequence[str] = ()) -> DictConfig:
     from hydra.errors import HydraException
 
     GlobalHydra.instance().clear()
+    _register_domains()
     try:
         with initialize_config_dir(str(repo_root() / "conf"), version_base="1.3"):
             cfg = hydra_compose("config", overrides=list(overrides))
     except HydraException as exc:
         first = str(exc).strip().splitlines()[0]
+        if unknown := re.search(r"Could not find 'domain/([^']*)'", first):
+            raise ConfigError(
+                f"domain={unknown[1]}: no such domain; use one of {', '.join(registry()) or 'none'}, "
+                f"or add programs/{unknown[1]}.py with its recipe programs/{unknown[1]}.yaml "
+                f"(in {programs_dir()})") from None
         raise ConfigError(f"conf/: {first} (see `geocode config --help` for the groups and keys)") from None
     validate(cfg)
     return cfg
@@ -71,10 +100,8 @@ def config_hash(cfg: DictConfig) -> str:
 
 
 def domains(cfg: DictConfig) -> list[str]:
-    """The domains the workflow runs: `domains` from config, or every program with a recipe."""
-    if cfg.domains:
-        return list(cfg.domains)
-    return sorted(p.stem for p in programs_dir().glob("*.py") if p.with_suffix(".yaml").exists())
+    """The domains the workflow runs: `domains` from config, or every domain in the registry."""
+    return list(cfg.domains) if cfg.domains else registry()
 
 
 def data_dir(cfg: DictConfig, domain: str, split: str) -> Path:

@@ -13,7 +13,7 @@ import numpy as np
 from PIL import Image, ImageDraw
 
 from geocode import meshio
-from geocode.blender.sketch import MARGIN, Camera, camera_location, render_still, set_mesh_data
+from geocode.blender.scene import Camera, RenderScene, render_still, set_mesh_data
 
 log = logging.getLogger(__name__)
 
@@ -25,38 +25,19 @@ PALETTE = np.array([
 VIEW = Camera("gallery", azimuth=35.0, elevation=25.0)
 
 
-class ShadedRenderer:
-    """A scene of its own (so it never disturbs a program's objects), reused between meshes."""
+class ShadedRenderer(RenderScene):
+    """A scene of its own (so it never disturbs a program's objects), reused between meshes:
+    a grey-lit white world, a sun, faces coloured by part label."""
 
     def __init__(self, size: int = 256, samples: int = 16):
-        import bpy
-
-        self.bpy = bpy
-        self.scene = bpy.data.scenes.new("geocode_gallery")
-        self._setup_render(size, samples)
-        self.mesh = bpy.data.meshes.new("geocode_gallery_shape")
-        obj = bpy.data.objects.new("geocode_gallery_shape", self.mesh)
-        self.scene.collection.objects.link(obj)
-        self.material = self._part_material()
-        self._setup_lights()
-        self._setup_camera()
-
-    def _setup_render(self, size: int, samples: int) -> None:
+        super().__init__("geocode_gallery", size, samples, strength=0.35)
         r = self.scene.render
-        r.engine = "CYCLES"
-        r.resolution_x = r.resolution_y = size
-        r.resolution_percentage = 100
-        r.use_compositing = r.use_sequencer = False
-        r.dither_intensity = 0.0
         r.film_transparent = True           # background composed onto white by Pillow
         r.image_settings.file_format, r.image_settings.color_mode = "PNG", "RGBA"
-        for name in dir(r):
-            if name.startswith("use_stamp"):
-                setattr(r, name, False)
-        c = self.scene.cycles
-        c.device, c.samples, c.use_denoising = "CPU", samples, False
-        c.max_bounces = 2
-        self.scene.view_settings.view_transform = "Standard"
+        self.scene.cycles.max_bounces = 2
+        self.material = self._part_material()
+        self._add_sun()
+        self.aim(VIEW)
 
     def _part_material(self):
         """Base colour from the per-face 'part_color' attribute."""
@@ -70,38 +51,13 @@ class ShadedRenderer:
         self.mesh.materials.append(mat)
         return mat
 
-    def _setup_lights(self) -> None:
-        bpy = self.bpy
-        sun = bpy.data.lights.new("geocode_gallery_sun", "SUN")
+    def _add_sun(self) -> None:
+        sun = self.bpy.data.lights.new("geocode_gallery_sun", "SUN")
         sun.energy, sun.angle = 2.0, math.radians(10)
-        obj = bpy.data.objects.new("geocode_gallery_sun", sun)
+        obj = self.bpy.data.objects.new("geocode_gallery_sun", sun)
         # From the upper left of the camera: top, front and side faces get distinct shades.
         obj.rotation_euler = (math.radians(50), 0.0, math.radians(-20))
         self.scene.collection.objects.link(obj)
-        world = bpy.data.worlds.new("geocode_gallery_world")
-        bg = next(n for n in world.node_tree.nodes if n.bl_idname == "ShaderNodeBackground")
-        bg.inputs["Color"].default_value = (1.0, 1.0, 1.0, 1.0)
-        bg.inputs["Strength"].default_value = 0.35
-        self.scene.world = world
-
-    def _setup_camera(self) -> None:
-        data = self.bpy.data.cameras.new("geocode_gallery_camera")
-        data.type, data.ortho_scale = "ORTHO", 2 * MARGIN
-        cam = self.bpy.data.objects.new("geocode_gallery_camera", data)
-        self.scene.collection.objects.link(cam)
-        self.scene.camera = cam
-        from mathutils import Vector
-
-        loc = Vector(camera_location(VIEW))
-        cam.location = loc
-        cam.rotation_mode = "QUATERNION"
-        cam.rotation_quaternion = (-loc).to_track_quat("-Z", "Y")
-
-    def alive(self) -> bool:
-        try:
-            return self.scene.name in self.bpy.data.scenes
-        except ReferenceError:
-            return False
 
     def set_mesh(self, mesh) -> None:
         set_mesh_data(self.mesh, mesh.vertices, mesh.faces)

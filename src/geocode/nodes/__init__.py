@@ -1,5 +1,5 @@
 """Geometry Nodes toolkit: a typed graph builder, cached node groups, and the building
-blocks of GeoCode programs (SPEC §1). Importing this package imports bpy.
+blocks of GeoCode programs (docs/paper-numbers.md#building-blocks). Importing this package imports bpy.
 
 A block is a `NodeGroup`; call it inside a builder to add an instance:
 

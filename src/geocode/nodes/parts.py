@@ -1,5 +1,5 @@
 """Meshes: ready-made triplets (path curve + RectangleFillet profile + style -> mesh), the
-parts that furniture programs are assembled from (SPEC §1 catalogue, "meshes").
+parts that furniture programs are assembled from (docs/paper-numbers.md#building-blocks, "meshes").
 
 Profiles are given in absolute sizes (`Width` along the profile's X, `Depth` along its Y),
 so styles scale by 1 at rest. Every block labels its faces with `Part` and, where other
@@ -13,7 +13,7 @@ import math
 from geocode.nodes.curves import fixed_bottom, fixed_top, quadratic_cartesian, quadratic_polar
 from geocode.nodes.graph import Graph
 from geocode.nodes.group import node_group
-from geocode.nodes.profiles import rectangle_fillet
+from geocode.nodes.profiles import corner_radius, rectangle_fillet
 from geocode.nodes.styles import (
     aligned_bevel_xy,
     cushion_style,
@@ -29,8 +29,6 @@ THIN_RESOLUTION = 2
 SEAT_RESOLUTION = 6
 # the rectangle's corner moves in by r (1 - 1/sqrt 2) when rounded with radius r
 _CORNER_INSET = 1.0 - 1.0 / math.sqrt(2.0)
-# the fillet radius of RectangleFillet never leaves this range (see profiles.py)
-_ROUNDNESS_RANGE = (1e-3, 0.995)
 
 
 def _vertical_path(g: Graph, bottom, top, points: int):
@@ -45,7 +43,7 @@ def _profile(g: Graph, width, depth, roundness, resolution=THIN_RESOLUTION):
 
 
 def _frame_inputs(g: Graph):
-    """Profile and style inputs shared by the frame meshes."""
+    """Profile and style inputs common to the frame meshes."""
     width = g.input("Width", "float", default=0.04, min=0.0)
     depth = g.input("Depth", "float", default=0.04, min=0.0)
     roundness = g.input("Roundness", "float", default=0.0, min=0.0, max=1.0)
@@ -82,8 +80,7 @@ def seat(g: Graph) -> None:
     mesh = seat_frame(g, curve=path, profile_curve=profile, bevel=bevel, fill_caps=True,
                       part=part)["Mesh"]
     g.output("Mesh", "geometry", mesh)
-    clamped = g.clamp(roundness, *_ROUNDNESS_RANGE)
-    inset = clamped * (g.min(width, depth) * 0.5) * _CORNER_INSET
+    inset = corner_radius(g, roundness, width, depth) * _CORNER_INSET
     g.output("Corner", "vector", g.vec(width * 0.5 - inset, depth * 0.5 - inset, 0.0))
 
 
