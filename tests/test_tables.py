@@ -64,3 +64,14 @@ def test_ablations_compare_the_variants_that_were_trained():
     assert table.loc["vase joint (cls)", "pc"] == 0.001
     assert table.loc["vase regression", "sketch"] == 0.006
     assert np.isnan(table.loc["vase regression", "pc (paper)"])             # the paper's rows are the chair's
+
+
+def test_stability_of_a_domain_that_hangs_is_not_applicable(tmp_path):
+    """A hanging program's metrics carry no drop test (NaN): its row says n/a, not 0%."""
+    lamp = metrics().assign(domain="ceiling_lamp", stable=np.nan)
+    frame = pd.concat([metrics(), lamp])
+    s = build_tables(frame, CAMERAS)["stability"]
+    assert s.loc["vase", "GT"] == 100.0
+    assert list(s.loc["ceiling_lamp", ["GT", "PC pred", "sketch pred"]]) == ["n/a"] * 3
+    write_tables(frame, CAMERAS, tmp_path, "smoke")
+    assert "| ceiling_lamp | n/a |" in (tmp_path / "stability.md").read_text()

@@ -9,6 +9,7 @@ ordinary sketch and points stages make its inputs.
 
 from __future__ import annotations
 
+import json
 import logging
 import time
 from pathlib import Path
@@ -19,6 +20,7 @@ from omegaconf import DictConfig
 
 from geocode.config import data_dir
 from geocode.meshio import normalise_unit_sphere, read_obj, write_obj, write_parquet, write_text
+from geocode.recipe import manifest_path
 from geocode.seeds import generator
 from geocode.timing import Stopwatch
 from geocode.variations import load_recipes, save_recipes
@@ -159,12 +161,19 @@ def rebuild_step(cfg: DictConfig, domain: str, predictions: Path, shard: int) ->
 
 # -- metrics ----------------------------------------------------------------------------------
 
+def hangs(cfg: DictConfig, domain: str) -> bool:
+    """Whether the domain's program hangs (its manifest says so): a drop test does not apply."""
+    return bool(json.loads(manifest_path(cfg, domain).read_text()).get("hangs", False))
+
+
 def metrics_step(cfg: DictConfig, domain: str, predictions: Path, out: Path) -> str:
     """Chamfer distance of every rebuilt prediction to its ground truth; the drop test on the
-    ground truth and on the clean predictions; one row per prediction (and per GT shape)."""
+    ground truth and on the clean predictions (none for a program that hangs); one row per
+    prediction (and per GT shape)."""
     from geocode.metrics import chamfer_meshes
     from geocode.stability import drop_test
 
+    hanging = hangs(cfg, domain)  # a ceiling lamp: `stable` stays NaN
     table = pd.read_parquet(predictions)
     rebuilt = Path(predictions).parent / "rebuilt"
     variant = Path(predictions).parent.parent.name          # <runs>/<domain>/<variant>/eval/
@@ -177,14 +186,15 @@ def metrics_step(cfg: DictConfig, domain: str, predictions: Path, out: Path) -> 
         targets = gt_meshes.items() if rec["modality"] == "baseline" else [(rec["id"], gt_meshes[rec["id"]])]
         clean = rec["source"] == "test" and not rec["noise"] and not rec["sparse"]
         stable = np.nan
-        if clean and (rec["modality"] == "pc" or rec["camera"] in cams):
+        if clean and not hanging and (rec["modality"] == "pc" or rec["camera"] in cams):
             stable = float(drop_test(pred)["stable"])
         for gt_id, gt in targets:
             rng = generator(cfg.seed, "chamfer", rec["condition"], gt_id)
             cd = chamfer_meshes(pred, gt, n=cfg.eval.chamfer_points, rng=rng)
             rows.append({**rec, "id": gt_id, "chamfer": cd, "stable": stable})
     rows += [dict(condition="gt", modality="gt", source="test", camera="", noise=0.0, sparse=0,
-                  id=i, chamfer=np.nan, stable=float(drop_test(m)["stable"])) for i, m in gt_meshes.items()]
+                  id=i, chamfer=np.nan, stable=np.nan if hanging else float(drop_test(m)["stable"]))
+             for i, m in gt_meshes.items()]
     frame = pd.DataFrame(rows).assign(domain=domain, variant=variant)
     write_parquet(out, frame)
     return f"{domain}/{variant}: {len(frame)} metric rows"

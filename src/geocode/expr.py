@@ -255,6 +255,9 @@ class _BoolOp(Expr):
         if not all(isinstance(item, Expr) for item in self.items):
             raise ExprError(f"{type(self).__name__} items must be expressions")
 
+    def evaluate_array(self, columns):
+        return functools.reduce(self.combine, (item.evaluate_array(columns) for item in self.items))
+
     def names(self):
         return frozenset().union(*(item.names() for item in self.items))
 
@@ -268,11 +271,7 @@ class And(_BoolOp):
     items: tuple
     precedence = PREC_AND
     word = "and"
-
-    def evaluate_array(self, columns):
-        return functools.reduce(
-            np.logical_and, (item.evaluate_array(columns) for item in self.items)
-        )
+    combine = np.logical_and
 
 
 @dataclass(frozen=True)
@@ -280,11 +279,7 @@ class Or(_BoolOp):
     items: tuple
     precedence = PREC_OR
     word = "or"
-
-    def evaluate_array(self, columns):
-        return functools.reduce(
-            np.logical_or, (item.evaluate_array(columns) for item in self.items)
-        )
+    combine = np.logical_or
 
 
 # ---------------------------------------------------------------- parsing

@@ -53,6 +53,7 @@ class Program:
     def __init__(self, domain: str, module: ModuleType):
         self.domain = domain
         self._module = module
+        self.hangs = bool(getattr(module, "HANGS", False))  # no drop test (a ceiling lamp)
         self._build()
 
     @classmethod
@@ -144,7 +145,7 @@ class Program:
 
     def manifest(self) -> dict:
         rules = self.visibility()
-        return {"domain": self.domain, "parameters": [
+        return {"domain": self.domain, "hangs": self.hangs, "parameters": [
             {"name": p.name, "kind": p.kind, "min": p.min, "max": p.max, "default": p.default,
              "description": p.description,
              "visible_if": None if rules[p.name] is None else str(rules[p.name])}

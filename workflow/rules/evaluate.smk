@@ -57,6 +57,7 @@ rule metrics:
     input:
         predictions=f"{RUNS}/{{domain}}/{{variant}}/eval/predictions.parquet",
         rebuilt=expand(f"{RUNS}/{{{{domain}}}}/{{{{variant}}}}/eval/rebuilt/done-{{shard}}.txt", shard=SHARDS),
+        manifest=lambda w: manifest(w.domain),  # says whether the shapes hang (no drop test)
     output:
         f"{RUNS}/{{domain}}/{{variant}}/eval/metrics.parquet",
     log:

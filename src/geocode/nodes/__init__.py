@@ -6,7 +6,17 @@ A block is a `NodeGroup`; call it inside a builder to add an instance:
     profile = rectangle_fillet(g, width=2, height=2, roundness=r)["Curve"]
 """
 
-from geocode.nodes import attachment, curves, parts, profiles, styles, symmetry, utils  # noqa: E402
+from geocode.nodes import (  # noqa: E402
+    attachment,
+    curves,
+    parts,
+    profiles,
+    shells,
+    styles,
+    surfaces,
+    symmetry,
+    utils,
+)
 from geocode.nodes.attachment import sample_curve, sample_curve_array, sample_points
 from geocode.nodes.curves import (
     arc,
@@ -19,7 +29,10 @@ from geocode.nodes.graph import PART_ATTRIBUTE, Graph, Node, Socket
 from geocode.nodes.group import NodeGroup, node_group
 from geocode.nodes.modifier import Evaluator
 from geocode.nodes.profiles import rectangle_fillet
+from geocode.nodes.repeat import Repeat
+from geocode.nodes.shells import shell
 from geocode.nodes.styles import leg_style, middle_expand_contract, rail, solidify, sweep
+from geocode.nodes.surfaces import loft
 from geocode.nodes.symmetry import mirror, radial
 from geocode.nodes.utils import align_curve_tilt_to_axis, align_curve_to_start_point
 
@@ -27,7 +40,8 @@ from geocode.nodes.utils import align_curve_tilt_to_axis, align_curve_to_start_p
 # styles.leg_style "StyleLeg"); a new block in these modules is listed without further edits.
 BLOCKS: dict[str, NodeGroup] = {
     value.name: value
-    for module in (profiles, curves, styles, attachment, symmetry, utils, parts)
+    for module in (profiles, curves, styles, shells, attachment, symmetry, utils, parts,
+                   surfaces)
     for value in vars(module).values() if isinstance(value, NodeGroup)
 }
 
@@ -36,5 +50,5 @@ __all__ = [
     "rectangle_fillet", "quadratic_polar", "quadratic_cartesian", "bezier_segment", "arc",
     "handle", "sweep", "rail", "leg_style", "middle_expand_contract", "solidify", "sample_curve",
     "sample_curve_array", "sample_points", "radial", "mirror", "align_curve_to_start_point",
-    "align_curve_tilt_to_axis",
+    "align_curve_tilt_to_axis", "loft", "Repeat", "shell",
 ]

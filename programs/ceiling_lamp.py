@@ -1,0 +1,215 @@
+"""The ceiling lamp program: a canopy on the ceiling, a rod hanging from it, arms leaving a
+hub on the rod, and a shade with a bulb at the end of each arm (21 parameters: 2 discrete,
+19 continuous).
+
+Layout: z = up, the ceiling is the plane z = 0 and the lamp hangs below it. Structure
+(every part hangs from the canopy through the others, for every parameter combination):
+- canopy: a dome-like sweep of a RectangleFillet outline (square to round) whose top lies
+  on the ceiling;
+- rod: a MeshStraightFrame from inside the canopy straight down by `rod_length`;
+- hub: a cylinder on the rod at the point sampled at `arm_attach` of the rod's length
+  (SampleCurve), so the arms follow the rod when it lengthens;
+- arms: a MeshQuadraticCartesian from inside the hub out to `hub_radius + arm_length`
+  and `arm_rise` up, bowed up by `arm_curvature` (it always arrives level or falling, so it
+  never runs through its shade), copied about the rod by SymmetryRadial;
+- socket: a short vertical cylinder around each arm's end;
+- shade: a StyleShell (open rim, closed top, a wall of `shade_thickness`) hanging from the
+  socket, which pierces its top; its profile along the height is a cone, a bell, a cylinder
+  or a globe (an Index Switch), its rim radius `shade_size` shrunk where needed so that
+  neighbouring shades never touch each other or the hub;
+- bulb: a round sweep hanging from the socket's bottom inside the shade.
+Part labels: canopy 1, rod 2, hub 3, arms 4, sockets 5, shades 6, bulbs 7.
+The lamp hangs: `HANGS` tells the evaluation that a drop test does not apply to it.
+"""
+
+from __future__ import annotations
+
+import math
+
+from geocode.nodes import (
+    Graph,
+    align_curve_tilt_to_axis,
+    radial,
+    rectangle_fillet,
+    sample_curve,
+    shell,
+    sweep,
+)
+from geocode.nodes.parts import quadratic_cartesian_mesh, straight_frame
+
+HANGS = True  # hung from the ceiling: valid = one piece; no drop test (stability "n/a")
+
+CANOPY, ROD, HUB, ARMS, SOCKETS, SHADES, BULBS = range(1, 8)
+CONE, BELL, CYLINDER, GLOBE = range(4)
+
+SOCKET_LENGTH = 0.035   # a socket reaches this far below its arm's end ...
+SOCKET_WIDTH = 1.8      # ... and is this many arm radii wide
+SHADE_GAP = 0.85        # a shade's half-width stays below this share of the free room
+BULB_FIT = 0.6          # a bulb's radius stays below this share of its shade's rim
+GLOBE_RIM = 0.25        # a globe's bottom opening, per unit of its width
+SHADE_RINGS = 10        # path points along a shade's height
+CANOPY_BULGE = 0.4      # the canopy narrows by this share from the ceiling to its bottom
+# the arch of an arm: its middle control point rises up to this share of the arm's length
+# above the arm's end (kept below the ceiling for every combination of the ranges)
+ARM_ARCH = 0.2
+
+
+def _parameters(g: Graph) -> dict:
+    p = {}
+
+    def add(name, kind, default, low, high, description):
+        p[name] = g.input(name, kind, default=default, min=low, max=high,
+                          description=description)
+
+    add("canopy_radius", "float", 0.08, 0.05, 0.14, "half-width of the canopy on the ceiling")
+    add("canopy_height", "float", 0.03, 0.02, 0.06, "height of the canopy")
+    add("canopy_roundness", "float", 1.0, 0.0, 1.0, "canopy outline: 0 square, 1 round")
+    add("rod_length", "float", 0.5, 0.25, 0.9, "length of the rod below the canopy")
+    add("rod_thickness", "float", 0.01, 0.006, 0.018, "radius of the rod")
+    add("arm_attach", "float", 1.0, 0.5, 1.0, "where the hub sits on the rod (fraction)")
+    add("hub_radius", "float", 0.04, 0.025, 0.08, "radius of the hub the arms leave from")
+    add("hub_height", "float", 0.04, 0.03, 0.08, "height of the hub")
+    add("arm_count", "int", 5, 2, 8, "number of arms (radial symmetry)")
+    add("arm_length", "float", 0.3, 0.15, 0.45, "radial reach of an arm beyond the hub")
+    add("arm_rise", "float", -0.05, -0.25, 0.08, "height of an arm's end above its start")
+    add("arm_curvature", "float", 0.4, 0.0, 1.0, "arm bow: 0 arrives level, 1 arches up")
+    add("arm_thickness", "float", 0.008, 0.005, 0.012, "radius of an arm")
+    add("shade_shape", "int", CONE, CONE, GLOBE, "shade: 0 cone, 1 bell, 2 cylinder, 3 globe")
+    add("shade_size", "float", 0.1, 0.05, 0.16, "half-width of a shade's rim")
+    add("shade_height", "float", 0.12, 0.06, 0.22, "height of a shade")
+    add("shade_top", "float", 0.4, 0.2, 0.8, "top width per rim width (cone, bell, globe)")
+    add("shade_flare", "float", 0.5, 0.0, 1.0, "how sharply a bell flares at its rim")
+    add("shade_roundness", "float", 1.0, 0.0, 1.0, "shade cross-section: 0 square, 1 round")
+    add("shade_thickness", "float", 0.005, 0.003, 0.01, "thickness of a shade's wall")
+    add("bulb_size", "float", 0.025, 0.015, 0.04, "radius of a bulb")
+    return p
+
+
+def _vertical_path(g: Graph, x, bottom, top, points: int):
+    """Path at distance x from the axis (on +X) from z=bottom up to z=top, its profile's X
+    pinned to world X."""
+    path = g.line(g.vec(x, 0.0, bottom), g.vec(x, 0.0, top), count=points)
+    return align_curve_tilt_to_axis(g, curve=path, axis=(1.0, 0.0, 0.0))["Curve"]
+
+
+def _outline(g: Graph, roundness, resolution: int):
+    """A 2 x 2 square-to-round outline: sweeps scale it by their half-width."""
+    return rectangle_fillet(g, width=2.0, height=2.0, roundness=roundness,
+                            resolution=resolution)["Curve"]
+
+
+def _corner_reach(roundness):
+    """How far the outline reaches from its centre, per unit half-width: sqrt(2) for a
+    square, 1 for a circle."""
+    return (1.0 - roundness) * math.sqrt(2.0) + roundness
+
+
+def _canopy(g: Graph, p: dict):
+    """Half-width canopy_radius (1 - CANOPY_BULGE (1 - t)^2) at t = (z + canopy_height) /
+    canopy_height, from z = -canopy_height up to the ceiling."""
+    path = _vertical_path(g, 0.0, -p["canopy_height"], 0.0, 6)
+    below = 1.0 - g.spline_factor()
+    scale = p["canopy_radius"] * (1.0 - CANOPY_BULGE * below * below)
+    return sweep(g, curve=path, profile_curve=_outline(g, p["canopy_roundness"], 4),
+                 scale=scale, fill_caps=True, part=CANOPY)["Mesh"]
+
+
+def _upright(g: Graph, top, bottom, radius, part):
+    """A vertical cylinder of `radius` on the axis from z=top down to z=bottom."""
+    return straight_frame(g, start=g.vec(0.0, 0.0, top), end=g.vec(0.0, 0.0, bottom),
+                          width=radius * 2.0, depth=radius * 2.0, roundness=1.0, part=part)
+
+
+def _arm(g: Graph, p: dict, hub_z):
+    """The arm on +X (the radial copies make the others): a quadratic curve from
+    (hub_radius / 2, 0, hub_z) inside the hub to its end (hub_radius + arm_length, 0,
+    hub_z + arm_rise), the middle control point arm_curvature ARM_ARCH arm_length above the
+    end's height: the arm arrives level or falling, never up through its shade."""
+    end = g.named("arm_end", g.vec(p["hub_radius"] + p["arm_length"], 0.0,
+                                   hub_z + p["arm_rise"]))
+    lift = p["arm_rise"] * 0.5 + p["arm_curvature"] * p["arm_length"] * ARM_ARCH
+    mesh = quadratic_cartesian_mesh(
+        g, start=g.vec(p["hub_radius"] * 0.5, 0.0, hub_z), end=end,
+        offset=g.vec(0.0, 0.0, lift), radius=p["arm_thickness"], roundness=1.0,
+        axis=(0.0, 1.0, 0.0), part=ARMS)["Mesh"]
+    return mesh, end
+
+
+def _socket(g: Graph, p: dict, end):
+    """A cylinder SOCKET_WIDTH arm radii wide around the arm's end, from 1.5 arm radii above
+    it down to SOCKET_LENGTH below it."""
+    width = p["arm_thickness"] * (2 * SOCKET_WIDTH)
+    return straight_frame(g, start=end + g.vec(0.0, 0.0, p["arm_thickness"] * 1.5),
+                          end=end - (0.0, 0.0, SOCKET_LENGTH), width=width, depth=width,
+                          roundness=1.0, part=SOCKETS)["Mesh"]
+
+
+def _rim(g: Graph, p: dict, end):
+    """The shade's rim half-width: shade_size, shrunk to SHADE_GAP of the room it has (half
+    the distance to the next arm's end, reach sin(pi / arm_count), and the arm's length,
+    clear of the hub), divided by how far the outline's corner reaches."""
+    between = end.x * g.sin(math.pi / p["arm_count"])
+    room = g.min(between, p["arm_length"]) * SHADE_GAP / _corner_reach(p["shade_roundness"])
+    return g.named("rim", g.min(p["shade_size"], room))
+
+
+def _shade_profile(g: Graph, p: dict):
+    """The shade's half-width per unit rim half-width at t (0 = rim, 1 = top)."""
+    t, top = g.spline_factor(), p["shade_top"]
+    cone = g.lerp(1.0, top, t)
+    bell = top + (1.0 - top) * g.math("POWER", 1.0 - t, 1.0 + p["shade_flare"] * 3.0)
+    # a sphere's outline, kept open at the rim and at the top
+    centred = t * 2.0 - 1.0
+    globe = g.max(g.sqrt(g.max(1.0 - centred * centred, 0.0)), g.lerp(GLOBE_RIM, top, t))
+    return g.index_switch(p["shade_shape"], [cone, bell, 1.0, globe], data_type="FLOAT")
+
+
+def _shade(g: Graph, p: dict, end, rim):
+    """A shell hanging from SOCKET_LENGTH / 2 under the arm's end (the socket pierces its
+    closed top) down by shade_height to its open rim, half-width rim x the profile."""
+    top = end.z - SOCKET_LENGTH / 2
+    path = _vertical_path(g, end.x, top - p["shade_height"], top, SHADE_RINGS)
+    return shell(g, curve=path, profile_curve=_outline(g, p["shade_roundness"], 3),
+                 scale=rim * _shade_profile(g, p), thickness=p["shade_thickness"],
+                 part=SHADES)["Mesh"]
+
+
+def _bulb(g: Graph, p: dict, end, rim):
+    """A round bulb of radius min(bulb_size, BULB_FIT rim) whose top reaches 0.2 radius into
+    the socket's bottom."""
+    radius = g.min(p["bulb_size"], rim * BULB_FIT)
+    top = end.z - SOCKET_LENGTH + radius * 0.2
+    path = _vertical_path(g, end.x, top - radius * 1.8, top, 8)
+    # a sphere's outline over 0.9 of its height, flat at both ends
+    centred = g.spline_factor() * 1.8 - 0.9
+    return sweep(g, curve=path, profile_curve=_outline(g, 1.0, 2),
+                 scale=radius * g.sqrt(1.0 - centred * centred), fill_caps=True,
+                 part=BULBS)["Mesh"]
+
+
+def build(g: Graph) -> None:
+    with g.frame("Parameters"):
+        p = _parameters(g)
+    with g.part("Canopy"):
+        canopy = _canopy(g, p)
+    with g.part("Rod"):  # from inside the canopy down by rod_length below it
+        rod = _upright(g, p["canopy_height"] * -0.5, -p["canopy_height"] - p["rod_length"],
+                       p["rod_thickness"], ROD)
+    with g.part("Hub"):  # where the rod is sampled at arm_attach of its length
+        at = sample_curve(g, curve=rod["Curve"], factor=p["arm_attach"])["Position"]
+        hub_z = g.named("hub_z", at.z)
+        half = p["hub_height"] * 0.5
+        hub = _upright(g, hub_z + half, hub_z - half, p["hub_radius"], HUB)["Mesh"]
+    with g.part("Arm"):
+        arm, end = _arm(g, p, hub_z)
+    with g.part("Socket"):
+        socket = _socket(g, p, end)
+    with g.part("Shade"):
+        rim = _rim(g, p, end)
+        shade = _shade(g, p, end, rim)
+    with g.part("Bulb"):
+        bulb = _bulb(g, p, end, rim)
+    with g.frame("Assembly"):
+        one = g.join([arm, socket, shade, bulb])
+        arms = radial(g, geometry=one, count=p["arm_count"], radius=0.0)["Geometry"]
+        g.output("Geometry", "geometry", g.join([canopy, rod["Mesh"], hub, arms]))

@@ -1,0 +1,241 @@
+"""The cabinet program: parameters, inferred visibility, recipe, and its structural rules (each
+rule: change one parameter, check the geometric consequence)."""
+
+import numpy as np
+import pytest
+import trimesh
+
+pytest.importorskip("bpy")
+
+from geocode.program import Program, programs_dir  # noqa: E402
+from geocode.recipe import Recipe  # noqa: E402
+from geocode.stability import loose_parts  # noqa: E402
+
+pytestmark = pytest.mark.blender
+
+# thin fronts, no base: the body's bottom rests on z = 0 and nothing is shifted by grounding
+PLAIN = {"base_style": 0, "top_board": 0, "drawer_rows": 3, "drawer_columns": 2,
+         "door_rows": 1, "door_columns": 2, "handle_style": 1}
+
+
+@pytest.fixture(scope="module")
+def cabinet():
+    import bpy
+
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    return Program.load("cabinet")
+
+
+@pytest.fixture(scope="module")
+def label(cabinet):
+    """Part label constants of the program module (BODY, DRAWERS, ...)."""
+    return cabinet._module
+
+
+def _only(mesh, *labels):
+    """The sub-mesh of the faces labelled with any of `labels`."""
+    keep = np.flatnonzero(np.isin(mesh.metadata["part"], labels))
+    return mesh.submesh([keep], append=True)
+
+
+def _pieces(mesh, *labels):
+    """The separate pieces (face-connected after welding) of the labelled faces."""
+    part = _only(mesh, *labels)
+    part.merge_vertices()
+    return part.split(only_watertight=False)
+
+
+def _body_half_width(mesh, label, z):
+    """Half-width of the body's front outline at heights `z`, from its side's vertices."""
+    body = _only(mesh, label.BODY).vertices
+    front = body[body[:, 1] < body[:, 1].min() + 1e-6]
+    side = front[front[:, 0] > 0]
+    order = np.argsort(side[:, 2])
+    return np.interp(z, side[order, 2], side[order, 0])
+
+
+# -- parameters, visibility, recipe -------------------------------------------------------------
+
+def test_parameter_space(cabinet):
+    kinds = [p.kind for p in cabinet.parameters]
+    assert len(cabinet.parameters) >= 25
+    assert kinds.count("float") >= 20 and len(kinds) - kinds.count("float") >= 8
+    for p in cabinet.parameters:
+        assert p.description and p.min <= p.default <= p.max, p.name
+
+
+def test_visibility_rules_are_inferred_from_the_switches(cabinet):
+    rules = {name: None if rule is None else str(rule)
+             for name, rule in cabinet.visibility().items()}
+    assert rules["width"] is None and rules["drawer_rows"] is None
+    assert rules["handle_length"] == "handle_style == 1"
+    assert rules["knob_size"] == "handle_style == 2"
+    assert rules["handle_reach"] == "handle_style == 1 or handle_style == 2"
+    assert rules["handle_height"] == "handle_style == 1 or handle_style == 2"
+    assert rules["top_overhang"] == "top_board"
+    assert rules["plinth_inset"] == "base_style == 1"
+    assert rules["leg_splay"] == "base_style == 2"
+    assert rules["base_height"] == "base_style == 1 or base_style == 2"
+    assert rules["door_height"] == "door_rows > 0"
+    assert rules["drawer_columns"] == "drawer_rows > 0"
+    assert rules["drawer_open"] == "drawer_rows > 0 and open_drawer > 0"
+
+
+@pytest.mark.parametrize("hidden, change", [
+    ({"handle_style": 0}, {"handle_length": 0.7, "handle_reach": 0.06, "knob_size": 0.03,
+                           "handle_height": 0.75}),
+    ({"handle_style": 1}, {"knob_size": 0.03}),
+    ({"top_board": 0}, {"top_overhang": 0.06, "top_thickness": 0.05}),
+    ({"base_style": 1}, {"leg_splay": 0.05, "leg_thickness": 0.04}),
+    ({"door_rows": 0}, {"door_height": 2.5, "door_columns": 1}),
+    ({"open_drawer": 0}, {"drawer_open": 0.7}),
+])
+def test_invisible_parameters_leave_the_mesh_unchanged(cabinet, hidden, change):
+    before = cabinet.evaluate(hidden)
+    after = cabinet.evaluate({**hidden, **change})
+    assert np.array_equal(before.vertices, after.vertices)
+
+
+def test_recipe_loads_against_the_program(cabinet):
+    recipe = Recipe.load(programs_dir() / "cabinet.yaml", cabinet.parameters,
+                         cabinet.visibility())
+    assert {p.name for p in recipe.parameters} == {p.name for p in cabinet.parameters}
+    assert any("drawer_rows" in str(c) for c in recipe.constraints)
+
+
+def test_every_part_carries_its_own_label(cabinet, label):
+    with_legs = cabinet.evaluate({**PLAIN, "top_board": 1, "base_style": 2})
+    assert set(with_legs.metadata["part"]) == {label.BODY, label.TOP, label.DRAWERS,
+                                               label.DOORS, label.HANDLES, label.LEGS}
+    plinth = cabinet.evaluate({"base_style": 1, "door_rows": 0, "handle_style": 2})
+    assert set(plinth.metadata["part"]) == {label.BODY, label.TOP, label.DRAWERS,
+                                            label.HANDLES, label.PLINTH}
+
+
+# -- structural rules ---------------------------------------------------------------------------
+
+def test_rows_and_columns_make_a_grid_of_fronts(cabinet, label):
+    mesh = cabinet.evaluate({**PLAIN, "drawer_rows": 3, "drawer_columns": 3, "door_rows": 2,
+                             "door_columns": 2, "handle_style": 2})
+    assert len(_pieces(mesh, label.DRAWERS)) == 9
+    assert len(_pieces(mesh, label.DOORS)) == 4
+    assert len(_pieces(mesh, label.HANDLES)) == 13  # a knob on every front
+    # the doors are below the drawers
+    doors, drawers = _only(mesh, label.DOORS).vertices, _only(mesh, label.DRAWERS).vertices
+    assert doors[:, 2].max() < drawers[:, 2].min()
+
+
+@pytest.mark.parametrize("shape", [
+    {"side_curvature": 0.08, "top_width": 0.75},
+    {"side_curvature": -0.08, "top_width": 1.2},
+    {"side_curvature": 0.04, "top_width": 1.0, "width": 0.45, "frame_width": 0.06},
+])
+def test_fronts_follow_the_body_profile_at_every_height(cabinet, label, shape):
+    values = {**PLAIN, **shape, "drawer_columns": 1, "door_columns": 1, "gap": 0.01}
+    mesh = cabinet.evaluate(values)
+    fronts = _only(mesh, label.DRAWERS, label.DOORS).vertices
+    # each front's outer edge: the body's side moved in by the frame and half the gap
+    expected = (_body_half_width(mesh, label, fronts[:, 2]) - values.get("frame_width", 0.03)
+                - values["gap"] / 2)
+    assert np.all(np.abs(fronts[:, 0]) <= expected + 1e-5)
+    outer = np.abs(np.abs(fronts[:, 0]) - expected) < 1e-5
+    assert outer.sum() >= 0.4 * len(fronts)  # the side edges of every front, top to bottom
+    assert np.ptp(fronts[outer, 2]) > 0.8 * values.get("height", 0.9)
+
+
+def test_bowing_the_sides_bows_the_fronts_with_them(cabinet, label):
+    def outer_x(curvature):
+        mesh = cabinet.evaluate({**PLAIN, "side_curvature": curvature, "door_rows": 0,
+                                 "drawer_rows": 4, "drawer_columns": 1})
+        fronts = _only(mesh, label.DRAWERS).vertices
+        middle = np.abs(fronts[:, 2] - 0.45) < 0.1
+        return np.abs(fronts[middle, 0]).max(), _body_half_width(mesh, label, 0.45)
+
+    flat, bowed = outer_x(0.0), outer_x(0.08)
+    assert bowed[1] - flat[1] > 0.035  # the body bows out in the middle ...
+    assert bowed[0] - flat[0] == pytest.approx(bowed[1] - flat[1], abs=0.01)  # ... and the fronts
+
+
+@pytest.mark.parametrize("style", [1, 2])
+def test_handles_stay_attached_when_a_drawer_is_pulled_out(cabinet, label, style):
+    values = {**PLAIN, "open_drawer": 1, "handle_style": style, "drawer_columns": 1,
+              "depth": 0.5}
+    closed = cabinet.evaluate({**values, "drawer_open": 0.1})
+    opened = cabinet.evaluate({**values, "drawer_open": 0.7})
+    top = closed.vertices[:, 2].max()
+
+    def top_row(mesh, *labels):
+        vertices = _only(mesh, *labels).vertices
+        return vertices[vertices[:, 2] > top - 0.2]
+
+    for part in (label.DRAWERS, label.HANDLES):  # front and handle move out together
+        moved = top_row(opened, part)[:, 1].min() - top_row(closed, part)[:, 1].min()
+        assert moved == pytest.approx(-0.6 * 0.5, abs=1e-4), part
+    # the other rows stay shut
+    lower = _only(opened, label.DRAWERS).vertices
+    assert lower[lower[:, 2] < top - 0.3][:, 1].min() > -0.25 - 0.021
+    for mesh in (closed, opened):
+        assert loose_parts(mesh) == 0
+        # every handle holds on to a front of its own
+        fronts = _pieces(mesh, label.DRAWERS, label.DOORS)
+        for piece in _pieces(mesh, label.HANDLES):
+            assert any(loose_parts(trimesh.util.concatenate([front, piece])) == 0
+                       for front in fronts)
+
+
+def test_doors_are_taller_than_drawers_by_their_height_ratio(cabinet, label):
+    mesh = cabinet.evaluate({**PLAIN, "door_height": 2.5, "drawer_rows": 2, "door_rows": 1,
+                             "gap": 0.002, "side_curvature": 0.0, "top_width": 1.0})
+    door = np.ptp(_only(mesh, label.DOORS).vertices[:, 2])
+    drawers = _pieces(mesh, label.DRAWERS)
+    drawer = np.ptp(drawers[0].vertices[:, 2])
+    assert (door + 0.002) / (drawer + 0.002) == pytest.approx(2.5, rel=1e-3)
+
+
+@pytest.mark.parametrize("base_style", [1, 2])
+def test_the_base_lifts_the_body(cabinet, label, base_style):
+    low = cabinet.evaluate({"base_style": base_style, "base_height": 0.05, "leg_splay": 0.0})
+    high = cabinet.evaluate({"base_style": base_style, "base_height": 0.2, "leg_splay": 0.0})
+    for mesh, lift in ((low, 0.05), (high, 0.2)):
+        assert mesh.vertices[:, 2].min() == pytest.approx(0.0, abs=1e-6)
+        base = _only(mesh, label.PLINTH if base_style == 1 else label.LEGS).vertices
+        body = _only(mesh, label.BODY).vertices
+        assert body[:, 2].min() == pytest.approx(base[:, 2].min() + lift, abs=2e-3)
+        assert loose_parts(mesh) == 0
+
+
+def test_the_top_board_overhangs_the_body(cabinet, label):
+    for overhang in (0.0, 0.06):
+        mesh = cabinet.evaluate({"top_board": 1, "top_overhang": overhang, "top_width": 1.0,
+                                 "side_curvature": 0.0, "width": 0.8, "depth": 0.45})
+        board = _only(mesh, label.TOP).vertices
+        assert board[:, 0].max() == pytest.approx(0.4 + overhang, abs=1e-4)
+        assert board[:, 1].min() == pytest.approx(-0.225 - overhang, abs=1e-4)
+        assert board[:, 1].max() == pytest.approx(0.225, abs=1e-4)  # flush at the back
+        assert board[:, 2].min() < _only(mesh, label.BODY).vertices[:, 2].max()
+
+
+def test_random_cabinets_are_whole_finite_and_grounded(cabinet):
+    rng = np.random.default_rng(7)
+    for _ in range(100):
+        values = cabinet.random_values(rng)
+        mesh = cabinet.evaluate(values)
+        assert len(mesh.faces) and np.isfinite(mesh.vertices).all(), values
+        assert mesh.vertices[:, 2].min() == pytest.approx(0.0, abs=1e-6), values
+        assert loose_parts(mesh) == 0, values
+
+
+def test_every_parameter_changes_the_mesh_somewhere_in_its_range(cabinet):
+    base = {**PLAIN, "open_drawer": 1}
+    settings = {"knob_size": {"handle_style": 2}, "leg_splay": {"base_style": 2},
+                "leg_taper": {"base_style": 2}, "leg_thickness": {"base_style": 2},
+                "leg_roundness": {"base_style": 2}, "plinth_inset": {"base_style": 1},
+                "base_height": {"base_style": 1}, "top_overhang": {"top_board": 1},
+                "top_thickness": {"top_board": 1}, "top_bevel": {"top_board": 1}}
+    for p in cabinet.parameters:
+        values = {**base, **settings.get(p.name, {})}
+        middle = (p.min + p.max) / 2 if p.kind == "float" else float(round((p.min + p.max) / 2))
+        meshes = [cabinet.evaluate({**values, p.name: value})
+                  for value in (p.min, middle, p.max)]
+        assert any(a.vertices.shape != b.vertices.shape or not np.allclose(a.vertices, b.vertices)
+                   for a, b in zip(meshes, meshes[1:], strict=False)), p.name
