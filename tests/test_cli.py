@@ -39,7 +39,7 @@ def test_config_prints_the_composed_profile(capsys):
     ("data.shards=0", "data.shards=0: give a whole number >= 1"),
     ("profile=huge", "profile"),
     ("data.nonsense=1", "nonsense"),
-    ("domain=tabel", "domain=tabel: no such domain; use one of chair, vase"),
+    ("domain=tabel", "domain=tabel: no such domain; use one of cabinet, ceiling_lamp, chair, table, vase"),
 ])
 def test_bad_overrides_give_one_line(override, words):
     result = geocode("config", override)
