@@ -23,6 +23,15 @@ if ! ldconfig -p 2>/dev/null | grep -q 'libusb-1.0.so.0'; then
   fi
 fi
 
+# The report's test opens the page in headless Chromium (Debian's package); without it that test is skipped.
+if ! command -v chromium >/dev/null; then
+  if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null; then
+    apt-get install -y -q chromium >/dev/null 2>&1 || { apt-get update -q >/dev/null && apt-get install -y -q chromium >/dev/null; }
+  else
+    echo "setup: the report test needs Chromium; run: sudo apt-get install -y chromium" >&2
+  fi
+fi
+
 [ -x .venv/bin/python ] || "$python" -m venv .venv
 stamp=.venv/.geocode-installed
 want=$(cat pyproject.toml scripts/setup.sh | sha1sum | cut -d' ' -f1)

@@ -39,10 +39,14 @@ def test_config_prints_the_composed_profile(capsys):
     ("data.shards=0", "data.shards=0: give a whole number >= 1"),
     ("profile=huge", "profile"),
     ("data.nonsense=1", "nonsense"),
-    ("domain=tabel", "domain=tabel: no such domain; use one of cabinet, ceiling_lamp, chair, table, vase"),
+    ("domain=tabel", "domain=tabel: no such domain; use one of "),
 ])
 def test_bad_overrides_give_one_line(override, words):
     result = geocode("config", override)
+    if override.startswith("domain="):
+        from geocode.config import registry
+
+        words += ", ".join(registry())
     assert result.returncode == 2
     assert words in result.stderr
     assert "Traceback" not in result.stderr and len(result.stderr.strip().splitlines()) == 1

@@ -232,6 +232,42 @@ def test_variants_train_step_and_predict(variant):
     assert (pred["points"][0] < torch.tensor([5, 3, 4])).all()
 
 
+@pytest.mark.parametrize("variant", VARIANTS)
+def test_shared_decoders_keep_the_statistics_of_both_modalities_together(variant):
+    """Training normalises a decoder's BatchNorm input with its batch's statistics and keeps
+    their running average for evaluation. A decoder shared by both modalities must see them
+    in one batch: called once per modality, it would keep a blend of two statistics that
+    training never normalised with, and eval-mode predictions would suffer (the point
+    branch stayed near the majority class on the mini profile; docs/fidelity.md)."""
+    torch.manual_seed(0)
+    model = GeoCodeModule(HEADS, variant=variant).train()
+    seen = {}
+    for b, branch in enumerate(model.branches):
+        for key, decoders in branch.decoders.items():
+            head = next(iter(decoders.heads.values()))
+            head[1].momentum = 1.0  # running mean = the last batch's mean
+            head[0].register_forward_hook(lambda m, i, out, key=(b, key), bn=head[1]:
+                                          seen.setdefault(key, []).append((out, bn)))
+    with torch.no_grad():
+        model(torch.randn(5, 60, 3), torch.rand(3, 1, 64, 64))
+    for (_, key), calls in seen.items():
+        assert len(calls) == 1, key  # one call per forward: both modalities, or one if separate
+        out, bn = calls[0]
+        assert len(out) == {"common": 8, "points": 5, "sketch": 3}[key]
+        torch.testing.assert_close(bn.running_mean, out.mean(dim=0))
+
+
+def test_cosine_schedule_warms_up_then_decays():
+    from geocode.models.module import cosine_factor
+
+    factors = [cosine_factor(e, warmup=2, total=10) for e in range(10)]
+    assert factors[:3] == pytest.approx([1 / 3, 2 / 3, 1.0])
+    assert factors[-1] == pytest.approx(0.05)
+    assert all(a > b for a, b in zip(factors[2:], factors[3:], strict=False))  # decays after the warmup
+    with pytest.raises(ValueError, match="train.schedule='linear'"):
+        GeoCodeModule(HEADS, schedule="linear")
+
+
 def _compose_model(name):
     """The composed config's model group; the group file alone where conf/config.yaml is missing."""
     from omegaconf import OmegaConf

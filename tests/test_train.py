@@ -6,25 +6,15 @@ import numpy as np
 import pandas as pd
 import pytest
 import torch
-from test_training_data import CAMERAS, DOMAIN, N_FPS, N_PICK, make_dataset
+from test_training_data import CAMERAS, DOMAIN, N_FPS, N_PICK, toy_config
 
-from geocode.config import PROGRAMS_ENV, compose
 from geocode.train import CheckpointError, load_model, predict, predict_classes, train
 
 
 @pytest.fixture(scope="module")
 def run(tmp_path_factory):
     """A one-epoch run of the joint model; returns (cfg, result)."""
-    root = tmp_path_factory.mktemp("train")
-    data, build, recipe_path = make_dataset(root)
-    recipe_path.with_suffix(".py").write_text("")  # registers the domain; training never runs it
-    with pytest.MonkeyPatch.context() as env:
-        env.setenv(PROGRAMS_ENV, str(recipe_path.parent))
-        cfg = compose([
-            "profile=smoke", f"paths.data={data}", f"paths.build={build}", f"paths.runs={root / 'runs'}",
-            f"domain={DOMAIN}", f"data.points.train_random={N_PICK}",
-            "train.max_epochs=1", "train.batch_size=4", "train.accelerator=cpu", "train.devices=1",
-        ])
+    with toy_config(tmp_path_factory.mktemp("train"), epochs=1) as cfg:
         assert [c.name for c in cfg.data.sketch.cameras if c.train] == CAMERAS
         yield cfg, train(cfg)
 

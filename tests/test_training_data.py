@@ -5,6 +5,7 @@ generated dataset (recipes.parquet, points/*.npz, sketches/*.png): no Blender in
 """
 
 import json
+from contextlib import contextmanager
 
 import numpy as np
 import pandas as pd
@@ -15,6 +16,7 @@ from PIL import Image
 from geocode.recipe import Recipe, load_manifest
 from geocode.training_data import (
     GeoCodeDataModule,
+    PointAugment,
     ShapeItems,
     SketchAugment,
     eval_cloud,
@@ -75,6 +77,23 @@ def make_dataset(root, sizes=None, seed=0):
                 img[rng.integers(20, 200), 10:200] = 0  # one black stroke
                 Image.fromarray(img, "L").save(d / "sketches" / f"{i}_{cam}.png")
     return root / "data", build, recipe_path
+
+
+@contextmanager
+def toy_config(root, epochs: int):
+    """The composed config of a CPU training run on `make_dataset(root)`, with the toy
+    domain in the program registry while the context lasts."""
+    from geocode.config import PROGRAMS_ENV, compose
+
+    data, build, recipe_path = make_dataset(root)
+    recipe_path.with_suffix(".py").write_text("")  # registers the domain; training never runs it
+    with pytest.MonkeyPatch.context() as env:
+        env.setenv(PROGRAMS_ENV, str(recipe_path.parent))
+        yield compose([
+            "profile=smoke", f"paths.data={data}", f"paths.build={build}", f"paths.runs={root / 'runs'}",
+            f"domain={DOMAIN}", f"data.points.train_random={N_PICK}",
+            f"train.max_epochs={epochs}", "train.batch_size=4", "train.accelerator=cpu", "train.devices=1",
+        ])
 
 
 @pytest.fixture
@@ -143,3 +162,41 @@ def test_datamodule_batches(dataset):
     assert len(dm.train_dataloader()) == 2  # 10 items, batch 4, last partial batch dropped
     val = list(dm.val_dataloader())
     assert sum(len(b["labels"]) for b in val) == 4
+
+
+def test_datamodule_carries_only_the_modalities_asked_for(dataset):
+    root, recipe = dataset
+    dm = GeoCodeDataModule(root, recipe, CAMERAS, n_random=N_PICK, batch_size=4, modalities=["points"])
+    dm.setup("fit")
+    assert dm.split("train").sketches == {}  # no sketch read from disk
+    assert set(next(iter(dm.train_dataloader()))) == {"points", "labels"}
+    assert set(next(iter(dm.val_dataloader()))) == {"points", "labels"}
+    with pytest.raises(ValueError, match=r"train.modalities=\['pixels'\]"):
+        GeoCodeDataModule(root, recipe, CAMERAS, modalities=["pixels"])
+
+
+def test_point_augmentation_keeps_the_size_and_stays_near_the_surface():
+    rng = np.random.default_rng(0)
+    cloud = rng.normal(size=(1000, 3)).astype(np.float32)
+    assert np.array_equal(PointAugment()(cloud, rng), cloud)  # all off: the cloud unchanged
+    scaled = PointAugment(scale=0.1)(cloud, rng)
+    factors = scaled / cloud  # one factor per axis
+    assert np.allclose(factors, factors[0], atol=1e-5) and (np.abs(factors[0] - 1) <= 0.1).all()
+    assert not np.allclose(factors[0], factors[0].mean())  # anisotropic
+    jittered = PointAugment(jitter=0.01)(cloud, rng)
+    assert 0 < np.abs(jittered - cloud).max() <= 0.03 + 1e-6
+    dropped = PointAugment(dropout=0.5)(cloud, np.random.default_rng(3))
+    kept = np.isin(dropped.view("V12"), cloud.view("V12")).all()  # every point is an original one
+    n_unique = len(np.unique(dropped, axis=0))
+    assert dropped.shape == cloud.shape and kept and 500 <= n_unique < 1000
+
+
+def test_training_items_are_augmented_and_evaluation_items_not(dataset):
+    root, recipe = dataset
+    split = load_split(root / "train", recipe, [])
+    aug = PointAugment(scale=0.2)
+    torch.manual_seed(0)
+    tr = ShapeItems(split, N_PICK, CAMERAS, train=True, point_augment=aug, modalities=["points"])
+    assert not np.allclose(tr[0]["points"][:N_FPS].numpy(), split.fps[0])
+    ev = ShapeItems(split, N_PICK, CAMERAS, train=False, point_augment=aug, modalities=["points"])
+    np.testing.assert_array_equal(ev[0]["points"][:N_FPS].numpy(), split.fps[0])

@@ -1,9 +1,12 @@
-"""results/report: an HTML page that shows, for a few test shapes per domain, the input sketch
-and point cloud beside the ground truth and the shapes rebuilt from the predictions."""
+"""results/report: an HTML page that shows, per domain, the learning curves of each modality
+(train and validation accuracy and loss per epoch, with the majority bar), the validation
+accuracy of every parameter, and for a few test shapes the input sketch and point cloud
+beside the ground truth and the shapes rebuilt from the predictions."""
 
 from __future__ import annotations
 
 import html
+import logging
 import math
 from pathlib import Path
 
@@ -12,6 +15,8 @@ import pandas as pd
 from PIL import Image, ImageDraw
 
 from geocode.meshio import atomic_path, write_text
+
+log = logging.getLogger(__name__)
 
 
 def cloud_image(points: np.ndarray, size: int = 224, azimuth: float = 35.0, elevation: float = 30.0) -> Image.Image:
@@ -37,19 +42,82 @@ def save_png(image: Image.Image, path: Path) -> None:
         image.save(tmp, format="PNG")
 
 
-def page(title: str, header: str, sections: list[tuple[str, list[dict]]]) -> str:
-    """sections: (domain, rows); a row has `id`, `chamfer_pc`, `chamfer_sketch` and image paths
-    `sketch`, `cloud`, `gt`, `pc`, `sketch_pred` relative to the page."""
+RECOVERED = 0.10  # a parameter counts as recovered this far above its majority accuracy
+CURVES = (  # (modality, stage, colour, dash): the lines of a learning-curve chart
+    ("points", "train", "#1f77b4", "4 3"), ("points", "val", "#1f77b4", ""),
+    ("sketch", "train", "#d62728", "4 3"), ("sketch", "val", "#d62728", ""),
+)
+
+
+def curve_svg(curves: pd.DataFrame, metric: str, majority: float | None = None,
+              width: int = 360, height: int = 220) -> str:
+    """An inline SVG chart of `<stage>/<metric>_<modality>` per epoch (the columns of
+    `geocode.train.epoch_metrics`), with a grey dashed line at `majority`."""
+    lines = [(f"{st}/{metric}_{m}", f"{m} {st}", colour, dash) for m, st, colour, dash in CURVES
+             if f"{st}/{metric}_{m}" in curves]
+    values = [curves[col].dropna() for col, *_ in lines]
+    ys = np.concatenate([v.to_numpy() for v in values] + [[majority] if majority is not None else []])
+    lo, hi = (0.0, 1.0) if metric == "acc" else (0.0, float(np.nanmax(ys)) * 1.05 or 1.0)
+    x0, x1, y0, y1 = 40, width - 10, height - 25, 10
+    last = max(int(curves.index.max()), 1)
+    sx = lambda e: x0 + (x1 - x0) * e / last  # noqa: E731
+    sy = lambda v: y0 + (y1 - y0) * (v - lo) / (hi - lo)  # noqa: E731
+    out = [f"<svg xmlns='http://www.w3.org/2000/svg' width='{width}' height='{height}' class='curve'>",
+           f"<rect x='{x0}' y='{y1}' width='{x1 - x0}' height='{y0 - y1}' fill='none' stroke='#999'/>",
+           f"<text x='{x0}' y='{height - 8}' font-size='11'>epoch 0</text>",
+           f"<text x='{x1}' y='{height - 8}' font-size='11' text-anchor='end'>{last}</text>",
+           f"<text x='{x0 - 4}' y='{y1 + 10}' font-size='11' text-anchor='end'>{hi:.2g}</text>",
+           f"<text x='{x0 - 4}' y='{y0}' font-size='11' text-anchor='end'>{lo:.2g}</text>",
+           f"<text x='{x1 - 4}' y='{y1 + 14}' font-size='12' text-anchor='end'>{'accuracy' if metric == 'acc' else metric}</text>"]
+    if majority is not None:
+        out.append(f"<line x1='{x0}' x2='{x1}' y1='{sy(majority):.1f}' y2='{sy(majority):.1f}' "
+                   "stroke='#888' stroke-dasharray='2 2'><title>majority</title></line>")
+    for (_, label, colour, dash), v in zip(lines, values, strict=True):
+        pts = " ".join(f"{sx(e):.1f},{sy(y):.1f}" for e, y in v.items())
+        out.append(f"<polyline points='{pts}' fill='none' stroke='{colour}' stroke-width='1.5' "
+                   f"stroke-dasharray='{dash}'><title>{label}</title></polyline>")
+    out.append("</svg>")
+    return "".join(out)
+
+
+def training_html(curves: pd.DataFrame, summary: dict) -> str:
+    """Learning curves (accuracy with the majority bar, loss) and, at the best validation
+    epoch, each parameter's accuracy per modality beside its majority accuracy."""
+    best = curves.loc[curves["val/acc"].idxmax()]
+    majority = summary["majority_per_parameter"]
+    legend = " ".join(f"<span style='color:{c}'>{'- -' if d else '&mdash;'} {m} {st}</span>" for m, st, c, d in CURVES)
+    out = [f"<h3>Learning curves</h3><p>{legend} <span style='color:#888'>&middot;&middot; majority "
+           f"{summary['majority_val_acc']:.3f}</span></p>",
+           "<div>" + curve_svg(curves, "acc", summary["majority_val_acc"]) + curve_svg(curves, "loss") + "</div>",
+           f"<h3>Validation accuracy per parameter (best epoch, {int(best.name)})</h3>",
+           "<table class='params'><tr><th>parameter</th><th>majority</th><th>points</th><th>sketch</th></tr>"]
+    for name, bar in majority.items():
+        cells = []
+        for m in ("points", "sketch"):
+            acc = best.get(f"val_param/{m}/{name}", np.nan)
+            mark = "" if np.isnan(acc) else " class='learnt'" if acc >= bar + RECOVERED else " class='missed'"
+            cells.append(f"<td{mark}>{acc:.2f}</td>")
+        out.append(f"<tr><td>{html.escape(name)}</td><td>{bar:.2f}</td>{''.join(cells)}</tr>")
+    out.append(f"</table><p>green: at least {RECOVERED} above the majority; red: not.</p>")
+    return "\n".join(out)
+
+
+def page(title: str, header: str, sections: list[dict]) -> str:
+    """sections: {"domain", "training": HTML of `training_html` or "", "rows"}; a row has
+    `id`, `chamfer_pc`, `chamfer_sketch` and image paths `sketch`, `cloud`, `gt`, `pc`,
+    `sketch_pred` relative to the page."""
     cells = ("sketch", "cloud", "gt", "pc", "sketch_pred")
     heads = ("input sketch", "input point cloud", "ground truth", "from the point cloud", "from the sketch")
     out = [f"<!doctype html><meta charset='utf-8'><title>{html.escape(title)}</title>",
            "<style>body{font-family:sans-serif;margin:2em}td{text-align:center;padding:4px}"
-           "img{width:180px;border:1px solid #ddd}</style>",
+           "img{width:180px;border:1px solid #ddd}svg.curve{margin-right:1em}"
+           "td.learnt{background:#d4f4d4}td.missed{background:#f8d8d8}</style>",
            f"<h1>{html.escape(title)}</h1><p>{html.escape(header)}</p>"]
-    for domain, rows in sections:
-        out.append(f"<h2>{html.escape(domain)}</h2><table><tr><th>shape</th>"
+    for section in sections:
+        out.append(f"<h2>{html.escape(section['domain'])}</h2>{section['training']}")
+        out.append("<h3>Test shapes, best to worst point-cloud prediction</h3><table><tr><th>shape</th>"
                    + "".join(f"<th>{h}</th>" for h in heads) + "</tr>")
-        for r in rows:
+        for r in section["rows"]:
             out.append(f"<tr><td>{html.escape(r['id'])}<br>CD pc {r['chamfer_pc']:.5f}"
                        f"<br>CD sketch {r['chamfer_sketch']:.5f}</td>"
                        + "".join(f"<td><img src='{html.escape(r[c])}'></td>" for c in cells) + "</tr>")
@@ -64,10 +132,22 @@ def pick_examples(metrics: pd.DataFrame, n: int) -> list[str]:
     return pc.iloc[rows]["id"].tolist()
 
 
-def write_report(out_dir: Path, title: str, header: str, sections: list[tuple[str, list[dict]]]) -> Path:
+def write_report(out_dir: Path, title: str, header: str, sections: list[dict]) -> Path:
     index = Path(out_dir) / "index.html"
     write_text(index, page(title, header, sections))
     return index
+
+
+def run_training_html(run: Path) -> str:
+    """`training_html` of a run folder (its CSV logs and summary.json); "" without a summary."""
+    import json
+
+    from geocode.train import SUMMARY, epoch_metrics
+
+    if not (run / SUMMARY).is_file():
+        log.warning("%s: no %s (trained before it was written); no learning curves", run, SUMMARY)
+        return ""
+    return training_html(epoch_metrics(run), json.loads((run / SUMMARY).read_text()))
 
 
 def report_step(cfg, metrics_files: list[Path], out_dir: Path, per_domain: int = 4) -> str:
@@ -103,7 +183,7 @@ def report_step(cfg, metrics_files: list[Path], out_dir: Path, per_domain: int =
             cd = metrics[metrics.id == shape_id].set_index("condition").chamfer
             rows.append(dict(id=shape_id, chamfer_pc=cd["pc"], chamfer_sketch=cd[f"sketch-{camera}"],
                              **{t: f"{name}_{t}.png" for t in ("sketch", "cloud", "gt", "pc", "sketch_pred")}))
-        sections.append((domain, rows))
+        sections.append({"domain": domain, "rows": rows, "training": run_training_html(Path(path).parents[1])})
     header = f"profile {cfg.profile_name}, config {config_hash(cfg)}; sketches from camera {camera}"
     index = write_report(out_dir, "geocode: predictions on test shapes", header, sections)
     return f"wrote {index}"

@@ -9,23 +9,29 @@
 
 from __future__ import annotations
 
+import json
 import logging
 import sys
 from collections.abc import Mapping
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytorch_lightning as pl
 import torch
 from omegaconf import DictConfig, OmegaConf
 
+from geocode.meshio import write_text
 from geocode.models.bench import bench_train
-from geocode.models.module import GeoCodeModule
+from geocode.models.module import MODALITIES, GeoCodeModule
 from geocode.recipe import load_recipe
 
 log = logging.getLogger(__name__)
 
 __all__ = ["CheckpointError", "bench_train", "load_model", "predict", "predict_classes", "train"]
+
+
+SUMMARY = "summary.json"  # in the run folder: the best scores and the majority bar
 
 
 class CheckpointError(ValueError):
@@ -56,15 +62,18 @@ def build_model(cfg: DictConfig, recipe) -> GeoCodeModule:
 
     return instantiate(
         cfg.model, heads=head_specs(recipe), lr=float(cfg.train.lr),
-        step_size=int(cfg.train.step_size), gamma=float(cfg.train.gamma), _convert_="all",
+        step_size=int(cfg.train.step_size), gamma=float(cfg.train.gamma),
+        schedule=str(cfg.train.get("schedule", "step")), warmup_epochs=int(cfg.train.get("warmup_epochs", 0)),
+        _convert_="all",
     )
 
 
 def build_datamodule(cfg: DictConfig, recipe):
-    from geocode.training_data import GeoCodeDataModule, SketchAugment
+    from geocode.training_data import GeoCodeDataModule, PointAugment, SketchAugment
 
     t = cfg.train
     aug = OmegaConf.to_container(t.augment, resolve=True) if t.get("augment") else {}
+    point_aug = OmegaConf.to_container(t.augment_points, resolve=True) if t.get("augment_points") else {}
     return GeoCodeDataModule(
         root=Path(cfg.paths.data) / cfg.domain.name,
         recipe=recipe,
@@ -74,6 +83,8 @@ def build_datamodule(cfg: DictConfig, recipe):
         num_workers=int(t.get("num_workers", 0)),
         augment=SketchAugment(**aug),
         eval_camera=t.get("eval_camera"),
+        point_augment=PointAugment(**point_aug),
+        modalities=list(t.get("modalities") or MODALITIES),
         seed=int(cfg.seed),
     )
 
@@ -95,8 +106,9 @@ class EpochLog(pl.Callback):
 
 def train(cfg: DictConfig, out_dir: str | Path | None = None) -> dict:
     """Fit cfg.model on cfg.domain's train split, validate on val; checkpoints in
-    <out>/checkpoints (best.ckpt by val/acc, last.ckpt), CSV and TensorBoard logs in <out>.
-    Resumes from last.ckpt when it is there."""
+    <out>/checkpoints (best.ckpt by val/acc, last.ckpt), CSV and TensorBoard logs in <out>,
+    the best scores beside the majority bar in <out>/summary.json. Resumes from last.ckpt
+    when it is there."""
     from pytorch_lightning.callbacks import ModelCheckpoint
     from pytorch_lightning.loggers import CSVLogger, TensorBoardLogger
 
@@ -133,29 +145,51 @@ def train(cfg: DictConfig, out_dir: str | Path | None = None) -> dict:
     )
     trainer.fit(model, datamodule=data, ckpt_path=resume, weights_only=True)
     score = best_cb.best_model_score
+    curves = epoch_metrics(out)
+    majority = majority_per_parameter(cfg, recipe)
+    best_row = curves.loc[curves["val/acc"].idxmax()] if "val/acc" in curves else {}
     result = {
         "out_dir": str(out),
         "best": str(ckpt_dir / "best.ckpt"),
         "last": str(last),
         "best_val_acc": None if score is None else float(score),
-        "majority_val_acc": majority_accuracy(cfg, recipe),
+        **{f"best_val_acc_{m}": float(best_row[f"val/acc_{m}"]) for m in MODALITIES if f"val/acc_{m}" in curves},
+        "majority_val_acc": float(np.mean(list(majority.values()))),
+        "majority_per_parameter": majority,
         "epochs": int(trainer.current_epoch),
         "resumed": resume is not None,
     }
+    write_text(out / SUMMARY, json.dumps(result, indent=1) + "\n")
     log.info("trained %s: %s", cfg.domain.name, result)
     return result
+
+
+def epoch_metrics(run: str | Path) -> pd.DataFrame:
+    """Per-epoch metrics of a run folder, from the CSV logs of every (re)start: one row per
+    epoch (the last logged value of each column), indexed by epoch."""
+    files = sorted(Path(run).glob("logs/version_*/metrics.csv"), key=lambda f: int(f.parent.name.split("_")[1]))
+    if not files:
+        raise FileNotFoundError(f"{run}: no logs/version_*/metrics.csv; train first")
+    rows = pd.concat([pd.read_csv(f) for f in files], ignore_index=True)
+    return rows.drop(columns=["step"], errors="ignore").groupby("epoch").last()
 
 
 def majority_accuracy(cfg: DictConfig, recipe) -> float:
     """The bar a model must clear: mean top-1 accuracy over parameters on the val split of
     always predicting each parameter's most frequent class in the train split."""
+    return float(np.mean(list(majority_per_parameter(cfg, recipe).values())))
+
+
+def majority_per_parameter(cfg: DictConfig, recipe) -> dict[str, float]:
+    """{parameter: val accuracy of its most frequent train class}, in recipe order."""
     from geocode.config import data_dir
     from geocode.variations import load_recipes
 
     classes = {split: recipe.class_matrix(load_recipes(data_dir(cfg, cfg.domain.name, split) / "recipes.parquet"))
                for split in ("train", "val")}
     common = np.array([np.bincount(column).argmax() for column in classes["train"].T])  # (P,)
-    return float((classes["val"] == common).mean())
+    hits = (classes["val"] == common).mean(axis=0)  # (P,)
+    return {p.name: float(h) for p, h in zip(recipe.parameters, hits, strict=True)}
 
 
 # ---------------------------------------------------------------- checkpoints

@@ -22,6 +22,7 @@ import torch.nn.functional as F
 from PIL import Image
 from torch.utils.data import DataLoader, Dataset
 
+from geocode.models.module import MODALITIES
 from geocode.seeds import generator, key_word
 
 IO_THREADS = 8  # file reads release the GIL (zlib, PNG decoding)
@@ -132,13 +133,37 @@ class SketchAugment:
         return x
 
 
+@dataclass(frozen=True)
+class PointAugment:
+    """Training-only cloud augmentation (no rotation: every shape is in its canonical pose).
+    Each axis scaled by a factor in [1 - `scale`, 1 + `scale`]; Gaussian jitter of std
+    `jitter` clipped at 3 std; a fraction in [0, `dropout`] of the points replaced by copies
+    of kept ones (the cloud keeps its size and its surface)."""
+
+    jitter: float = 0.0
+    scale: float = 0.0
+    dropout: float = 0.0
+
+    def __call__(self, points: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+        """Shapes: points (N, 3) -> (N, 3) float32."""
+        out = points * rng.uniform(1 - self.scale, 1 + self.scale, 3)
+        if self.jitter > 0:
+            out = out + np.clip(rng.normal(0, self.jitter, out.shape), -3 * self.jitter, 3 * self.jitter)
+        n_drop = int(rng.uniform(0, self.dropout) * len(out))
+        if n_drop:
+            order = rng.permutation(len(out))
+            out[order[:n_drop]] = out[rng.choice(order[n_drop:], n_drop)]
+        return out.astype(np.float32)
+
+
 class ShapeItems(Dataset):
-    """Items of one split: {"points": (F + n_random, 3), "sketch": (1, H, W), "labels": (P,)}.
+    """Items of one split: {"points": (F + n_random, 3), "sketch": (1, H, W), "labels": (P,)},
+    with only the `modalities` asked for.
 
     Training: a fresh draw of n_random random points and a random camera of `cameras` per
-    item, plus sketch augmentation, from torch's generator (which `train` seeds with the
-    config's seed, workers included). Evaluation: the fixed draw of `eval_cloud` under `seed`,
-    cameras[0], no augmentation.
+    item, plus sketch and cloud augmentation, from torch's generator (which `train` seeds
+    with the config's seed, workers included). Evaluation: the fixed draw of `eval_cloud`
+    under `seed`, cameras[0], no augmentation.
     """
 
     def __init__(
@@ -148,6 +173,8 @@ class ShapeItems(Dataset):
         cameras: Sequence[str],
         train: bool,
         augment: SketchAugment | None = None,
+        point_augment: PointAugment | None = None,
+        modalities: Sequence[str] = MODALITIES,
         seed: int = 0,
     ) -> None:
         self.data = data
@@ -155,6 +182,8 @@ class ShapeItems(Dataset):
         self.cameras = list(cameras)
         self.train = train
         self.augment = augment if train else None
+        self.point_augment = point_augment if train else None
+        self.modalities = set(modalities)
         if not train:
             total = data.random.shape[1]
             self.picks = np.stack([eval_pick(total, n_random, seed, i) for i in data.ids])  # (n, n_random)
@@ -169,12 +198,16 @@ class ShapeItems(Dataset):
             cam = self.cameras[int(torch.randint(len(self.cameras), ()))]
         else:
             pick, cam = self.picks[i], self.cameras[0]
-        points = np.concatenate([d.fps[i], d.random[i][pick]])  # (F + n_random, 3)
-        sketch = torch.from_numpy(d.sketches[cam][i]).float().div_(255.0)[None]  # (1, H, W)
-        if self.augment is not None:
-            sketch = self.augment(sketch)
-        return {"points": torch.from_numpy(points), "sketch": sketch,
-                "labels": torch.from_numpy(d.labels[i])}
+        item = {"labels": torch.from_numpy(d.labels[i])}
+        if "points" in self.modalities:
+            points = np.concatenate([d.fps[i], d.random[i][pick]])  # (F + n_random, 3)
+            if self.point_augment is not None:
+                points = self.point_augment(points, np.random.default_rng(int(torch.randint(2**62, ()))))
+            item["points"] = torch.from_numpy(points)
+        if "sketch" in self.modalities:
+            sketch = torch.from_numpy(d.sketches[cam][i]).float().div_(255.0)[None]  # (1, H, W)
+            item["sketch"] = self.augment(sketch) if self.augment is not None else sketch
+        return item
 
 
 # ---------------------------------------------------------------- DataModule
@@ -184,8 +217,9 @@ class GeoCodeDataModule(pl.LightningDataModule):
     """train / val items of one domain's dataset folder (<root>/<split>/...).
 
     `cameras`: the training cameras (a training item picks one at random); validation uses
-    `eval_camera` (default: the first training camera). `seed` (the config's) fixes the
-    training order of every epoch and the validation draw of random points.
+    `eval_camera` (default: the first training camera). `modalities`: the inputs the items
+    carry (a model trained on points alone never reads a sketch). `seed` (the config's)
+    fixes the training order of every epoch and the validation draw of random points.
     """
 
     def __init__(
@@ -198,9 +232,14 @@ class GeoCodeDataModule(pl.LightningDataModule):
         num_workers: int = 0,
         augment: SketchAugment | None = None,
         eval_camera: str | None = None,
+        point_augment: PointAugment | None = None,
+        modalities: Sequence[str] = MODALITIES,
         seed: int = 0,
     ) -> None:
         super().__init__()
+        unknown = set(modalities) - set(MODALITIES)
+        if unknown or not modalities:
+            raise ValueError(f"train.modalities={list(modalities)}: give a non-empty subset of {list(MODALITIES)}")
         self.seed = int(seed)
         self.root = Path(root)
         self.recipe = recipe
@@ -210,12 +249,15 @@ class GeoCodeDataModule(pl.LightningDataModule):
         self.batch_size = batch_size
         self.num_workers = num_workers
         self.augment = augment if augment is not None else SketchAugment()
+        self.point_augment = point_augment
+        self.modalities = list(modalities)
         self.splits: dict[str, SplitData] = {}
 
     def split(self, name: str) -> SplitData:
         """A split, read once and kept."""
         if name not in self.splits:
             cams = self.cameras if name == "train" else [self.eval_camera]
+            cams = cams if "sketch" in self.modalities else []
             self.splits[name] = load_split(self.root / name, self.recipe, cams)
         return self.splits[name]
 
@@ -237,10 +279,11 @@ class GeoCodeDataModule(pl.LightningDataModule):
         )
 
     def train_dataloader(self) -> DataLoader:
-        items = ShapeItems(self.split("train"), self.n_random, self.cameras, True, self.augment)
+        items = ShapeItems(self.split("train"), self.n_random, self.cameras, True, self.augment,
+                           self.point_augment, self.modalities)
         return self._loader(items, True)
 
     def val_dataloader(self) -> DataLoader:
         items = ShapeItems(self.split("val"), self.n_random, [self.eval_camera], False,
-                           seed=self.seed)
+                           modalities=self.modalities, seed=self.seed)
         return self._loader(items, False)

@@ -11,7 +11,9 @@ Variants:
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
+from functools import partial
 
 import pytorch_lightning as pl
 import torch
@@ -22,6 +24,7 @@ from geocode.models.heads import Decoders
 from geocode.models.vgg import VGG_CHANNELS, VGGSketchEncoder
 
 VARIANTS = ("joint", "separate", "regression", "huang")
+SCHEDULES = ("step", "cosine")  # the paper's StepLR; warmup + cosine decay for short budgets
 MODALITIES = ("points", "sketch")
 
 
@@ -58,12 +61,21 @@ class Branch(nn.Module):
         return self.decoders[modality if modality in self.decoders else "common"]
 
     def forward(self, points=None, sketches=None) -> dict[str, dict[str, torch.Tensor]]:
-        out = {}
+        embeddings = {}
         if points is not None:
-            out["points"] = self.decoder("points")(self.points(points))
+            embeddings["points"] = self.points(points)
         if sketches is not None:
-            out["sketch"] = self.decoder("sketch")(self.sketch(sketches))
-        return out
+            embeddings["sketch"] = self.sketch(sketches)
+        if "common" not in self.decoders:
+            return {m: self.decoders[m](e) for m, e in embeddings.items()}
+        # Shared decoders see both modalities in one batch: their BatchNorm then normalises
+        # in training with the statistics it keeps for evaluation. Called once per modality,
+        # the running statistics would blend two distributions that training never saw
+        # blended, and eval-mode predictions of both modalities would suffer.
+        outputs = self.decoders["common"](torch.cat(list(embeddings.values())))
+        sizes = [len(e) for e in embeddings.values()]
+        parts = {name: out.split(sizes) for name, out in outputs.items()}
+        return {m: {name: p[i] for name, p in parts.items()} for i, m in enumerate(embeddings)}
 
 
 def branch_layout(variant: str, specs: Sequence[Mapping]) -> list[tuple[list[dict], bool, bool]]:
@@ -106,14 +118,19 @@ class GeoCodeModule(pl.LightningModule):
         lr: float = 1e-2,
         step_size: int = 20,
         gamma: float = 0.9,
+        schedule: str = "step",
+        warmup_epochs: int = 0,
     ) -> None:
         super().__init__()
+        if schedule not in SCHEDULES:
+            raise ValueError(f"train.schedule={schedule!r}: use one of {', '.join(SCHEDULES)}")
         heads = [dict(h) for h in heads]
         self.save_hyperparameters(
             {"heads": heads, "variant": variant, "k": k, "edge_channels": list(edge_channels),
              "point_channels": point_channels, "sketch_channels": list(sketch_channels),
              "sketch_pool": sketch_pool, "hidden": list(hidden), "dropout": dropout, "fast": fast,
-             "lr": lr, "step_size": step_size, "gamma": gamma}
+             "lr": lr, "step_size": step_size, "gamma": gamma, "schedule": schedule,
+             "warmup_epochs": warmup_epochs}
         )
         self.parameter_names = [h["name"] for h in heads]
         self.columns = {name: j for j, name in enumerate(self.parameter_names)}
@@ -184,5 +201,18 @@ class GeoCodeModule(pl.LightningModule):
     def configure_optimizers(self):
         hp = self.hparams
         opt = torch.optim.Adam(self.parameters(), lr=hp.lr)
-        sched = torch.optim.lr_scheduler.StepLR(opt, step_size=hp.step_size, gamma=hp.gamma)
+        if hp.get("schedule", "step") == "step":
+            sched = torch.optim.lr_scheduler.StepLR(opt, step_size=hp.step_size, gamma=hp.gamma)
+        else:
+            factor = partial(cosine_factor, warmup=hp.warmup_epochs, total=self.trainer.max_epochs)
+            sched = torch.optim.lr_scheduler.LambdaLR(opt, factor)
         return {"optimizer": opt, "lr_scheduler": {"scheduler": sched, "interval": "epoch"}}
+
+
+def cosine_factor(epoch: int, warmup: int, total: int) -> float:
+    """The learning rate's factor in an epoch: a linear rise over `warmup` epochs, then a
+    cosine from 1 down to 0.05 at the last epoch."""
+    if epoch < warmup:
+        return (epoch + 1) / (warmup + 1)
+    progress = (epoch - warmup) / max(total - warmup - 1, 1)
+    return 0.05 + 0.95 * 0.5 * (1 + math.cos(math.pi * min(progress, 1.0)))
