@@ -1,60 +1,31 @@
 """The chair program: parameters, inferred visibility, recipe, and its structural rules (each
 rule: change one parameter, check the geometric consequence)."""
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
 pytest.importorskip("bpy")
 
-from geocode.program import Program  # noqa: E402
-from geocode.recipe import Recipe  # noqa: E402
+from geocode.program import part_mesh  # noqa: E402
 from geocode.stability import drop_test, loose_parts  # noqa: E402
 
 pytestmark = pytest.mark.blender
 
-ROOT = Path(__file__).resolve().parents[1]
+DOMAIN = "chair"  # the `program` and `label` fixtures (conftest.py) load it
 # a chair with every optional part of the open backrest on
 FULL = {"cushion": 1, "armrest_style": 1, "armrest_support": 1, "armrest_cushion": 1,
         "top_rail": 1, "backrest_solid": 0, "vertical_rails": 0, "monoleg": 0}
 
 
-@pytest.fixture(scope="module")
-def chair():
-    import bpy
-
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    return Program.load("chair")
-
-
-@pytest.fixture(scope="module")
-def label(chair):
-    """Part label constants of the program module (SEAT, LEGS, ...)."""
-    return chair._module
-
-
-def _faces_of(mesh, labels):
-    return np.isin(mesh.metadata["part"], list(labels))
-
-
 def _vertices(mesh, *labels) -> np.ndarray:
-    """Vertices of the faces labelled with any of `labels`."""
-    faces = mesh.faces[_faces_of(mesh, labels)]
-    return mesh.vertices[np.unique(faces)]
-
-
-def _only(mesh, *labels):
-    """The sub-mesh of the faces labelled with any of `labels`."""
-    sub = mesh.submesh([np.flatnonzero(_faces_of(mesh, labels))], append=True)
-    return sub
+    return part_mesh(mesh, *labels).vertices
 
 
 # -- parameters, visibility, recipe ---------------------------------------------------------------
 
-def test_parameters_cover_the_chair(chair):
-    names = {p.name for p in chair.parameters}
-    kinds = [p.kind for p in chair.parameters]
+def test_parameters_cover_the_chair(program):
+    names = {p.name for p in program.parameters}
+    kinds = [p.kind for p in program.parameters]
     assert len(names) >= 59
     assert kinds.count("float") >= 40 and len(kinds) - kinds.count("float") >= 10
     expected = {
@@ -71,13 +42,13 @@ def test_parameters_cover_the_chair(chair):
         "rail_bevel",
     }
     assert expected <= names, expected - names
-    for p in chair.parameters:
+    for p in program.parameters:
         assert p.description and p.min <= p.default <= p.max, p.name
 
 
-def test_visibility_rules_are_inferred_from_the_switches(chair):
+def test_visibility_rules_are_inferred_from_the_switches(program):
     rules = {name: None if rule is None else str(rule)
-             for name, rule in chair.visibility().items()}
+             for name, rule in program.visibility().items()}
     assert sum(rule is not None for rule in rules.values()) >= 20
     assert rules["seat_height"] is None and rules["monoleg"] is None
     assert rules["leg_splay"] == "not monoleg"
@@ -98,15 +69,15 @@ def test_visibility_rules_are_inferred_from_the_switches(chair):
     ({"backrest_solid": 1}, {"cross_rail_count": 4, "top_rail_size": 0.14}),
     ({"vertical_rails": 1}, {"cross_rail_thickness_z": 0.08}),
 ])
-def test_invisible_parameters_leave_the_mesh_unchanged(chair, hidden, change):
-    before = chair.evaluate(hidden)
-    after = chair.evaluate({**hidden, **change})
+def test_invisible_parameters_leave_the_mesh_unchanged(program, hidden, change):
+    before = program.evaluate(hidden)
+    after = program.evaluate({**hidden, **change})
     assert np.array_equal(before.vertices, after.vertices)
 
 
-def test_recipe_loads_against_the_program(chair):
-    recipe = Recipe.load(ROOT / "programs" / "chair.yaml", chair.parameters, chair.visibility())
-    assert {p.name for p in recipe.parameters} == {p.name for p in chair.parameters}
+def test_recipe_loads_against_the_program(program):
+    recipe = program.recipe()
+    assert {p.name for p in recipe.parameters} == {p.name for p in program.parameters}
     for p in recipe.parameters:
         if p.kind == "float":
             assert 3 <= p.samples <= 5, p.name
@@ -115,24 +86,24 @@ def test_recipe_loads_against_the_program(chair):
     assert any("monoleg_bottom_radius" in t for t in texts)
 
 
-def test_every_part_carries_its_own_label(chair, label):
-    open_back = chair.evaluate(FULL)
+def test_every_part_carries_its_own_label(program, label):
+    open_back = program.evaluate(FULL)
     assert set(open_back.metadata["part"]) == {
         label.SEAT, label.CUSHION, label.LEGS, label.BACK_FRAME, label.CROSS_RAILS,
         label.TOP_RAIL, label.ARMRESTS, label.ARM_SUPPORTS, label.ARM_PADS}
-    rails = chair.evaluate({"vertical_rails": 1, "top_rail": 0, "monoleg": 1, "tent_legs": 1})
+    rails = program.evaluate({"vertical_rails": 1, "top_rail": 0, "monoleg": 1, "tent_legs": 1})
     assert set(rails.metadata["part"]) == {label.SEAT, label.BACK_FRAME, label.VERTICAL_RAILS,
                                            label.MONOLEG, label.TENT_LEGS}
-    solid = chair.evaluate({"backrest_solid": 1, "armrest_style": 2})
+    solid = program.evaluate({"backrest_solid": 1, "armrest_style": 2})
     assert set(solid.metadata["part"]) == {label.SEAT, label.LEGS, label.BACK_FRAME,
                                            label.BACK_PANEL, label.ARMRESTS}
 
 
 # -- structural rules ------------------------------------------------------------------------------
 
-def test_raising_the_seat_moves_legs_frame_and_rails(chair, label):
-    low = chair.evaluate({**FULL, "seat_height": 0.35, "seat_thickness": 0.05})
-    high = chair.evaluate({**FULL, "seat_height": 0.6, "seat_thickness": 0.05})
+def test_raising_the_seat_moves_legs_frame_and_rails(program, label):
+    low = program.evaluate({**FULL, "seat_height": 0.35, "seat_thickness": 0.05})
+    high = program.evaluate({**FULL, "seat_height": 0.6, "seat_thickness": 0.05})
     def rise(part):
         return _vertices(high, part)[:, 2].mean() - _vertices(low, part)[:, 2].mean()
 
@@ -147,9 +118,9 @@ def test_raising_the_seat_moves_legs_frame_and_rails(chair, label):
         assert top - 0.05 < legs[:, 2].max() < top
 
 
-def test_rounder_seat_moves_legs_and_frame_inwards(chair, label):
-    square = chair.evaluate({"seat_roundness": 0.0, "leg_splay": 0.0})
-    round_ = chair.evaluate({"seat_roundness": 1.0, "leg_splay": 0.0})
+def test_rounder_seat_moves_legs_and_frame_inwards(program, label):
+    square = program.evaluate({"seat_roundness": 0.0, "leg_splay": 0.0})
+    round_ = program.evaluate({"seat_roundness": 1.0, "leg_splay": 0.0})
     for part in (label.LEGS, label.BACK_FRAME):
         s, r = _vertices(square, part), _vertices(round_, part)
         assert r[:, 0].max() < s[:, 0].max() - 0.02, part
@@ -162,7 +133,7 @@ def test_rounder_seat_moves_legs_and_frame_inwards(chair, label):
 
 @pytest.mark.parametrize("curvature", [-0.5, 0.5])
 @pytest.mark.parametrize("slant", [-0.05, 0.35])
-def test_rails_span_the_backrest_frame_at_any_curvature_and_slant(chair, label, curvature,
+def test_rails_span_the_backrest_frame_at_any_curvature_and_slant(program, label, curvature,
                                                                   slant):
     bend = {"backrest_curvature": curvature, "backrest_slant": slant, "back_frame_offset": 0.5,
             "cross_rail_count": 4, "cross_rail_bottom_offset": 0.1,
@@ -170,13 +141,13 @@ def test_rails_span_the_backrest_frame_at_any_curvature_and_slant(chair, label, 
     for rails, part in (({"vertical_rails": 0}, label.CROSS_RAILS),
                         ({"vertical_rails": 1, "vertical_rail_count": 5},
                          label.VERTICAL_RAILS)):
-        mesh = chair.evaluate({**FULL, **bend, **rails})
+        mesh = program.evaluate({**FULL, **bend, **rails})
         frame, rail = _vertices(mesh, label.BACK_FRAME), _vertices(mesh, part)
         assert frame[:, 0].min() - 1e-6 <= rail[:, 0].min()
         assert rail[:, 0].max() <= frame[:, 0].max() + 1e-6
         assert frame[:, 2].min() - 1e-6 <= rail[:, 2].min()
         assert rail[:, 2].max() <= frame[:, 2].max() + 0.05
-        assert loose_parts(_only(mesh, label.SEAT, label.BACK_FRAME, part)) == 0
+        assert loose_parts(part_mesh(mesh, label.SEAT, label.BACK_FRAME, part)) == 0
 
 
 @pytest.mark.parametrize("arm", [
@@ -192,20 +163,20 @@ def test_rails_span_the_backrest_frame_at_any_curvature_and_slant(chair, label, 
     {"seat_roundness": 0.0, "backrest_slant": -0.05, "armrest_back_height": 0.35,
      "armrest_edge": 0.6, "back_frame_offset": 0.5, "backrest_curvature": 0.5},
 ])
-def test_armrests_stay_attached_to_the_frame_and_the_seat(chair, label, arm, shape):
-    mesh = chair.evaluate({**FULL, **shape, **arm})
+def test_armrests_stay_attached_to_the_frame_and_the_seat(program, label, arm, shape):
+    mesh = program.evaluate({**FULL, **shape, **arm})
     arms = (label.ARMRESTS, label.ARM_SUPPORTS, label.ARM_PADS)
     assert len(_vertices(mesh, *arms))
-    assert loose_parts(_only(mesh, label.SEAT, label.BACK_FRAME, *arms)) == 0
+    assert loose_parts(part_mesh(mesh, label.SEAT, label.BACK_FRAME, *arms)) == 0
     # without the frame, the arms of a straight style without support hang free: they
     # are held by the frame, not by chance contacts
     if arm["armrest_style"] == 1 and not arm["armrest_support"]:
-        assert loose_parts(_only(mesh, label.SEAT, *arms)) > 0
+        assert loose_parts(part_mesh(mesh, label.SEAT, *arms)) > 0
 
 
 @pytest.mark.parametrize("count", [3, 6])
-def test_monoleg_with_tent_legs_stands_on_a_wide_base(chair, label, count):
-    mesh = chair.evaluate({"monoleg": 1, "tent_legs": 1, "tent_leg_count": count,
+def test_monoleg_with_tent_legs_stands_on_a_wide_base(program, label, count):
+    mesh = program.evaluate({"monoleg": 1, "tent_legs": 1, "tent_leg_count": count,
                            "tent_leg_spread": 0.22, "armrest_style": 1})
     assert mesh.vertices[:, 2].min() == pytest.approx(0.0, abs=1e-6)
     feet = _vertices(mesh, label.TENT_LEGS)
@@ -217,32 +188,32 @@ def test_monoleg_with_tent_legs_stands_on_a_wide_base(chair, label, count):
     assert loose_parts(mesh) == 0
 
 
-def test_monoleg_foot_rests_on_the_floor(chair, label):
-    mesh = chair.evaluate({"monoleg": 1, "tent_legs": 0, "monoleg_bottom_radius": 0.2})
+def test_monoleg_foot_rests_on_the_floor(program, label):
+    mesh = program.evaluate({"monoleg": 1, "tent_legs": 0, "monoleg_bottom_radius": 0.2})
     foot = _vertices(mesh, label.MONOLEG)
     foot = foot[foot[:, 2] < 1e-6]
     assert np.linalg.norm(foot[:, :2], axis=1).max() == pytest.approx(0.2, abs=1e-3)
 
 
-def test_overall_scale_scales_each_axis(chair):
-    base = chair.evaluate({})
-    scaled = chair.evaluate({"scale_x": 1.25, "scale_y": 0.8, "scale_z": 1.2})
+def test_overall_scale_scales_each_axis(program):
+    base = program.evaluate({})
+    scaled = program.evaluate({"scale_x": 1.25, "scale_y": 0.8, "scale_z": 1.2})
     extent = lambda m: m.bounds[1] - m.bounds[0]  # noqa: E731
     assert extent(scaled) / extent(base) == pytest.approx([1.25, 0.8, 1.2], rel=1e-4)
     assert scaled.vertices[:, 2].min() == pytest.approx(0.0, abs=1e-6)
 
 
-def test_random_chairs_are_whole_finite_and_grounded(chair):
+def test_random_chairs_are_whole_finite_and_grounded(program):
     rng = np.random.default_rng(7)
     for _ in range(100):
-        values = chair.random_values(rng)
-        mesh = chair.evaluate(values)
+        values = program.random_values(rng)
+        mesh = program.evaluate(values)
         assert np.isfinite(mesh.vertices).all(), values
         assert mesh.vertices[:, 2].min() == pytest.approx(0.0, abs=1e-6), values
         assert loose_parts(mesh) == 0, values
 
 
-def test_random_chairs_mostly_survive_the_drop_test(chair):
+def test_random_chairs_mostly_survive_the_drop_test(program):
     rng = np.random.default_rng(11)
-    stable = [drop_test(chair.evaluate(chair.random_values(rng)))["stable"] for _ in range(12)]
+    stable = [drop_test(program.evaluate(program.random_values(rng)))["stable"] for _ in range(12)]
     assert sum(stable) >= 10

@@ -190,3 +190,5 @@ def test_bench_reports_speed_and_validity(toy):
     result = bench("toy", n=5)
     assert result["n"] == 5 and result["shapes_per_s"] > 0
     assert result["median_faces"] > 0 and 0.0 <= result["loose_part_rate"] <= 1.0
+    assert "stable_rate" not in result
+    assert 0.0 <= bench("toy", n=3, stability=True)["stable_rate"] <= 1.0

@@ -14,7 +14,7 @@ from geocode.config import recipe_path  # noqa: E402
 from geocode.program import Program, registry  # noqa: E402
 
 pytestmark = pytest.mark.blender
-GRID_BEFORE = {"vase": "8fe52aa2392fdc14", "chair": "fb03eb98c425c57c"}
+GRID_BEFORE = {"vase": "8fe52aa2392fdc14", "chair": "fb03eb98c425c57c", "table": "870323cc33f966ed"}
 
 
 def grid_digest(recipe) -> str:

@@ -129,6 +129,8 @@ def parser() -> argparse.ArgumentParser:
     c.add_argument("--device", default="auto", help="epoch: auto (a GPU where there is one), cpu or cuda")
     c.add_argument("--variant", default="joint", help="epoch: the model variant (joint, separate, regression, huang)")
     c.add_argument("--points", type=int, default=2300, help="epoch: points per cloud")
+    c.add_argument("--stability", action="store_true",
+                   help="program: also the share of shapes that pass the drop test")
     c.add_argument("--json", action="store_true")
     c.add_argument("overrides", nargs="*", metavar="key=value", help="fit: the run's config (e.g. profile=smoke)")
     c.set_defaults(run=cmd_bench)
@@ -286,7 +288,7 @@ def cmd_bench(args):
     if args.stage == "program":
         from geocode.program import bench
 
-        return bench(args.domain, n=args.n or 200)
+        return bench(args.domain, n=args.n or 200, stability=args.stability)
     if args.stage == "dataset":
         from geocode.blender.bench import bench_dataset
 

@@ -235,11 +235,18 @@ def _checked(parameter: Parameter, value) -> float:
     return number if parameter.kind == "float" else float(round(number))
 
 
-def bench(domain: str, n: int = 200, seed: int = 0) -> dict:
+def part_mesh(mesh: trimesh.Trimesh, *labels: int) -> trimesh.Trimesh:
+    """The sub-mesh of the faces of an evaluated `mesh` labelled with any of `labels`."""
+    faces = np.flatnonzero(np.isin(mesh.metadata["part"], labels))
+    return mesh.submesh([faces], append=True)
+
+
+def bench(domain: str, n: int = 200, seed: int = 0, stability: bool = False) -> dict:
     """Random shapes per second (evaluation + OBJ export to a temp dir), the median face
-    count, and the fraction of shapes with loose parts or non-finite vertices."""
+    count, and the fraction of shapes with loose parts or non-finite vertices; with
+    `stability`, also the fraction that pass the drop test (after the timing)."""
     from geocode.meshio import write_obj
-    from geocode.stability import loose_parts
+    from geocode.stability import is_stable, loose_parts
 
     program = Program.load(domain)
     rng = np.random.default_rng(seed)
@@ -254,6 +261,9 @@ def bench(domain: str, n: int = 200, seed: int = 0) -> dict:
     elapsed = clock.seconds
     loose = sum(loose_parts(mesh) > 0 for mesh in meshes)
     nonfinite = sum(not np.isfinite(mesh.vertices).all() for mesh in meshes)
-    return {"n": n, "shapes_per_s": round(n / elapsed, 2),
-            "median_faces": int(statistics.median(len(m.faces) for m in meshes)),
-            "loose_part_rate": loose / n, "nonfinite_rate": nonfinite / n}
+    result = {"n": n, "shapes_per_s": round(n / elapsed, 2),
+              "median_faces": int(statistics.median(len(m.faces) for m in meshes)),
+              "loose_part_rate": loose / n, "nonfinite_rate": nonfinite / n}
+    if stability:
+        result["stable_rate"] = sum(is_stable(mesh) for mesh in meshes) / n
+    return result

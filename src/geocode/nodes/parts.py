@@ -106,7 +106,8 @@ def cushion_mesh(g: Graph) -> None:
 def leg_mesh(g: Graph) -> None:
     """A leg hanging from `Top` to `Bottom` on a CurveFixedTop (`Curvature` 1: vertical
     under the seat, bending out towards the foot), StyleLeg from `Top Radius` to
-    `Bottom Radius`, a square-to-round profile (`Roundness`) with its X on world X."""
+    `Bottom Radius`, a square-to-round profile (`Roundness`) with its X on world X.
+    `Curve` is its axis, top to bottom, for parts attached to the leg (stretchers)."""
     top = g.input("Top", "vector", default=(0, 0, 0.45))
     bottom = g.input("Bottom", "vector", default=(0, 0, 0))
     curvature = g.input("Curvature", "float", default=1.0, min=0.0, max=1.0)
@@ -120,6 +121,7 @@ def leg_mesh(g: Graph) -> None:
                      top_radius=top_radius, bottom_radius=bottom_radius, fill_caps=True,
                      part=part)["Mesh"]
     g.output("Mesh", "geometry", mesh)
+    g.output("Curve", "geometry", aligned)
 
 
 @node_group("MeshStraightFrame")

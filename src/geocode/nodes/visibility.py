@@ -8,7 +8,8 @@ selector adds no condition. Paths enter node groups and come back out of them, s
 inside blocks count, with their selectors rewritten in terms of the program's inputs.
 
 The rule of an input is the disjunction over its paths of the conjunction of their
-conditions, simplified (duplicates, constants, absorption `a or (a and b)` -> `a`).
+conditions, simplified (duplicates, constants, absorption `a or (a and b)` -> `a`,
+complements `(a and b) or (not a and b)` -> `b`).
 A Menu Switch fed by a constant menu selects its one item; one fed by a link (a menu can
 only come from a menu input, never from a bool/int/float parameter) may select any item.
 A selector the translator cannot express (a field, an unsupported node) counts as
@@ -275,14 +276,31 @@ def _and(dnf: DNF, condition: Expr | None) -> DNF:
 
 
 def _prune(terms) -> DNF:
-    """Drop conjunctions that contain another one (absorption) and contradictory ones."""
-    terms = [t for t in set(terms) if not _contradictory(t)]
-    terms.sort(key=len)
+    """Drop contradictory conjunctions, merge pairs that differ only in an atom and its
+    negation (`a and b or not a and b` -> `b`), and drop conjunctions that contain another
+    one (absorption)."""
+    terms = _merge_complements({t for t in terms if not _contradictory(t)})
+    terms = sorted(terms, key=len)
     kept: list = []
     for term in terms:
         if not any(other <= term for other in kept):
             kept.append(term)
     return frozenset(kept)
+
+
+def _merge_complements(terms: set) -> set:
+    merged = True
+    while merged:
+        merged = False
+        for term in list(terms):
+            pair = next((atom for atom in term
+                         if (term - {atom}) | {_negate(atom)} in terms), None)
+            if pair is not None:
+                terms -= {term, (term - {pair}) | {_negate(pair)}}
+                terms.add(term - {pair})
+                merged = True
+                break
+    return terms
 
 
 def _contradictory(term: frozenset) -> bool:
