@@ -17,17 +17,21 @@ import numpy as np
 import pandas as pd
 from omegaconf import DictConfig
 
-from geocode.config import data_dir
-from geocode.meshio import normalise_unit_sphere, read_obj, write_obj, write_parquet, write_text
+from geocode.config import data_dir, simplified_split
+from geocode.meshio import (
+    REDO_EXPORT,
+    normalise_unit_sphere,
+    read_obj,
+    read_parquet,
+    write_obj,
+    write_parquet,
+    write_text,
+)
 from geocode.variations import load_recipes, save_recipes
 
 log = logging.getLogger("geocode.evaluation")
 
 KEYS = ["condition", "modality", "source", "camera", "noise", "sparse", "id"]
-
-
-def simplified_split(factor: int) -> str:
-    return f"test-s{factor}"
 
 
 def conditions(cfg: DictConfig) -> list[dict]:
@@ -76,7 +80,7 @@ def simplify_step(cfg: DictConfig, domain: str, factor: int) -> str:
     for shard in range(cfg.data.shards):
         rows = recipes[recipes["shard"] == shard]
         for shape_id in rows["id"]:
-            mesh = read_obj(src / "shapes" / f"{shape_id}.obj")
+            mesh = read_obj(src / "shapes" / f"{shape_id}.obj", REDO_EXPORT)
             small = normalise_unit_sphere(simplify(mesh, 1.0 / factor))
             write_obj(dst / "shapes" / f"{shape_id}.obj", small)
             faces_before += len(mesh.faces)
@@ -92,7 +96,7 @@ def point_input(cfg: DictConfig, domain: str, cond: dict, shape_id: str) -> np.n
 
     rng = id_seed(cfg.seed, "eval", cond["condition"], shape_id)
     if cond["sparse"]:
-        mesh = read_obj(data_dir(cfg, domain, "test") / "shapes" / f"{shape_id}.obj")
+        mesh = read_obj(data_dir(cfg, domain, "test") / "shapes" / f"{shape_id}.obj", REDO_EXPORT)
         return sparse_cloud(mesh, cond["sparse"], rng)
     split = "test" if cond["source"] == "test" else f"test-{cond['source']}"
     clouds = load_clouds(data_dir(cfg, domain, split) / "points" / f"{shape_id}.npz")
@@ -114,7 +118,7 @@ def predict_step(cfg: DictConfig, domain: str, checkpoint: Path, out: Path) -> s
     from geocode.training_data import load_sketch
 
     recipe = load_recipe(cfg)
-    model = load_model(checkpoint)
+    model = load_model(checkpoint, recipe=recipe)
     ids = test_ids(cfg, domain)
     frames = []
     for cond in conditions(cfg):
@@ -152,7 +156,7 @@ def rebuild_step(cfg: DictConfig, domain: str, predictions: Path, shard: int) ->
     """Rebuild every n-th prediction with the program: <eval>/rebuilt/<condition>/<id>.obj."""
     from geocode.blender.rebuild import rebuild
 
-    table = pd.read_parquet(predictions).iloc[shard::cfg.data.shards]
+    table = read_parquet(predictions, "rerun the predict step").iloc[shard::cfg.data.shards]
     names = [c for c in table.columns if c not in KEYS]
     out_dir = Path(predictions).parent / "rebuilt"
     jobs = [(f"{r['condition']}/{r['id']}", {n: r[n] for n in names}) for r in table.to_dict("records")]
@@ -169,15 +173,15 @@ def metrics_step(cfg: DictConfig, domain: str, predictions: Path, out: Path) -> 
     from geocode.metrics import chamfer_meshes
     from geocode.stability import drop_test
 
-    table = pd.read_parquet(predictions)
+    table = read_parquet(predictions, "rerun the predict step")
     rebuilt = Path(predictions).parent / "rebuilt"
     variant = Path(predictions).parent.parent.name          # <runs>/<domain>/<variant>/eval/
     gt_dir = data_dir(cfg, domain, "test") / "shapes"
     cams = {c.name for c in cfg.data.sketch.cameras if c.train}
-    gt_meshes = {i: read_obj(gt_dir / f"{i}.obj") for i in test_ids(cfg, domain)}
+    gt_meshes = {i: read_obj(gt_dir / f"{i}.obj", REDO_EXPORT) for i in test_ids(cfg, domain)}
     rows = []
     for rec in table[KEYS].to_dict("records"):
-        pred = read_obj(rebuilt / rec["condition"] / f"{rec['id']}.obj")
+        pred = read_obj(rebuilt / rec["condition"] / f"{rec['id']}.obj", "delete it and rerun the rebuild step")
         targets = gt_meshes.items() if rec["modality"] == "baseline" else [(rec["id"], gt_meshes[rec["id"]])]
         clean = rec["source"] == "test" and not rec["noise"] and not rec["sparse"]
         stable = np.nan

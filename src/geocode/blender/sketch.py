@@ -25,10 +25,8 @@ from __future__ import annotations
 import hashlib
 import logging
 import math
-import signal
 import struct
 from collections.abc import Iterable, Mapping, Sequence
-from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -36,6 +34,7 @@ import numpy as np
 
 from geocode import meshio
 from geocode.blender.progress import Progress, quiet_stdout
+from geocode.errors import UserError, signals_deferred
 
 log = logging.getLogger(__name__)
 
@@ -240,24 +239,6 @@ class SketchRenderer:
                 png.unlink(missing_ok=True)
 
 
-@contextmanager
-def signals_deferred():
-    """Deliver SIGINT and SIGTERM only when the block ends. Freestyle runs Python stroke
-    shaders in the middle of a render: a KeyboardInterrupt raised there is swallowed and the
-    render 'finishes' without strokes, so a blank image would take a finished file's name.
-    Deferred, the signal arrives right after the render, before anything is renamed."""
-    caught: list[int] = []
-    previous = {sig: signal.signal(sig, lambda signum, _: caught.append(signum))
-                for sig in (signal.SIGINT, signal.SIGTERM)}
-    try:
-        yield
-    finally:
-        for sig, handler in previous.items():
-            signal.signal(sig, handler)
-        if caught:
-            signal.raise_signal(caught[0])
-
-
 def render_still(scene, tmp: Path) -> Path:
     """Render `scene` to a PNG beside `tmp` and return its path (the caller removes it)."""
     import bpy
@@ -297,7 +278,23 @@ def sketch_mesh(mesh, out_paths: Mapping[str, str | Path], cameras: Sequence[Cam
 
 
 def read_ids(path: str | Path) -> list[str]:
-    return [line.strip() for line in Path(path).read_text().splitlines() if line.strip()]
+    """The shape ids a stage's done file lists (the export step writes the one others read)."""
+    path = Path(path)
+    if not path.is_file():
+        raise UserError(path, "missing", "run the export step for this shard first")
+    return [line.strip() for line in path.read_text().splitlines() if line.strip()]
+
+
+def is_sketch(path: Path) -> bool:
+    """Whether `path` holds a decodable PNG: a rerun redoes empty or broken views."""
+    from PIL import Image
+
+    try:
+        with Image.open(path) as image:
+            image.verify()
+    except (OSError, SyntaxError, ValueError):  # PIL's verify() raises SyntaxError on bad chunks
+        return False
+    return True
 
 
 def sketch_shard(split_dir: str | Path, shard: int, cameras: Sequence[Camera | Mapping] = DEFAULT_CAMERAS,
@@ -314,9 +311,9 @@ def sketch_shard(split_dir: str | Path, shard: int, cameras: Sequence[Camera | M
     progress = Progress(f"sketch shard {shard}", len(ids) * len(cameras), log)
     for shape_id in ids:
         paths = {c.name: out_dir / f"{shape_id}_{c.name}.png" for c in cameras}
-        todo = [c for c in cameras if not paths[c.name].exists()]
+        todo = [c for c in cameras if not is_sketch(paths[c.name])]
         if todo:
-            mesh = meshio.read_obj(split_dir / "shapes" / f"{shape_id}.obj")
+            mesh = meshio.read_obj(split_dir / "shapes" / f"{shape_id}.obj", meshio.REDO_EXPORT)
             sketch_mesh(mesh, paths, todo, shape_id, seed, jitter, size)
         progress.step(len(cameras))
     progress.finish()
