@@ -19,6 +19,7 @@ import numpy as np
 import pandas as pd
 import yaml
 
+from geocode.errors import UserError
 from geocode.expr import Expr, ExprError, parse
 
 __all__ = [
@@ -38,7 +39,7 @@ INVISIBLE = -1.0
 RANGE_TOLERANCE = 1e-9  # a recipe may repeat the program's float range written with rounding
 
 
-class RecipeError(ValueError):
+class RecipeError(UserError):
     """A bad recipe or manifest; the message is one line naming the file, the field and the fix."""
 
 
@@ -277,11 +278,15 @@ class Recipe:
         """Read and validate a recipe YAML against the program's parameters and visibility."""
         path = Path(path)
         try:
-            text = path.read_text()
+            text = path.read_text(encoding="utf-8")
         except FileNotFoundError:
             raise RecipeError(
                 f"{path}: file not found; write the recipe beside the program"
             ) from None
+        except UnicodeDecodeError as exc:
+            raise RecipeError(path, f"not UTF-8 text (byte {exc.start})", "save it as UTF-8") from None
+        except OSError as exc:
+            raise RecipeError(path, f"cannot be read ({exc.strerror})", "give a readable YAML file") from None
         try:
             data = yaml.load(
                 text, Loader=_UniqueKeyLoader
@@ -628,6 +633,10 @@ def _mapping_without_duplicates(loader, node, deep=False):
     seen = set()
     for key_node, _ in node.value:
         key = loader.construct_object(key_node, deep=deep)
+        if not isinstance(key, str | int | float | bool | None):
+            raise yaml.constructor.ConstructorError(
+                None, None, f"key {key!r} is not a name", key_node.start_mark
+            )
         if key in seen:
             raise yaml.constructor.ConstructorError(
                 None, None, f"key {key!r} given twice", key_node.start_mark

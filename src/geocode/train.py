@@ -135,6 +135,7 @@ def train(cfg: DictConfig, out_dir: str | Path | None = None) -> dict:
     recipe = load_recipe(cfg)
     model = build_model(cfg, recipe)
     data = build_datamodule(cfg, recipe)
+    data.setup("fit")  # read (and check) the data before the run folder is made; kept for fit
     last = ckpt_dir / "last.ckpt"
     resume = last if last.exists() else None
     if resume is not None:
