@@ -151,7 +151,7 @@ def load_clouds(path: str | Path) -> dict[str, np.ndarray]:
     try:
         with np.load(path, allow_pickle=False) as data:
             return {k: data[k] for k in data.files}
-    except (OSError, ValueError, zipfile.BadZipFile) as exc:
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile) as exc:
         raise UserError(path, f"not a readable point-cloud .npz ({one_line(exc)})", "delete it and rerun the points step") from None
 
 
@@ -197,7 +197,7 @@ def _complete(path: Path) -> bool:
     try:
         with np.load(path, allow_pickle=False) as data:
             return all(k in data.files for k in CLOUD_KEYS)
-    except (OSError, ValueError, zipfile.BadZipFile):
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile):
         return False
 
 
