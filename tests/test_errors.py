@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
 import torch
 
@@ -80,11 +81,16 @@ CONFIG_CASES = {
     "nested target": (override("+model.extra._target_=os.system"), ["_target_=os.system"]),
     "variant escapes": (override("model.variant=../../evil"), ["model.variant=../../evil"]),
     "eval variant": (override("eval.variants=[joint,bogus]"), ["eval.variants=bogus", "joint"]),
-    "domain escapes": (override("domain.name=../../x"), ["domain.name=../../x"]),
+    "domain escapes": (override("domain.name=../../x"), ["domain.name=../../x", "a name of letters"]),
     "unknown domain": (override("domains=[nosuch]"), ["domains=nosuch", "vase"]),
     "profile name escapes": (override("profile_name=../x"), ["profile_name=../x"]),
     "unknown profile": (override("profile=huge"), ["profile", "config --keys"]),
     "unknown key": (override("data.nonsense=1"), ["nonsense", "config --keys"]),
+    "broken interpolation": (override("train.max_epochs=${oops}"), ["train.max_epochs", "oops", "config --keys"]),
+    "override without key": (override("=3"), ["conf/", "config --keys"]),
+    "group replaced by a value": (override("train.augment=3"), ["train.augment.flip", "missing"]),
+    "group replaced by null": (override("data.points=null"), ["data.points.surface", "missing"]),
+    "split counts replaced": (override("data.variations=5"), ["data.variations.train", "missing"]),
 }
 
 USAGE_CASES = {
@@ -97,6 +103,7 @@ USAGE_CASES = {
     "gallery n zero": (["gallery", "vase", "-o", "{tmp}/g.png", "--n", "0"], ["--n", "'0'", ">= 1"]),
     "gallery n negative": (["gallery", "vase", "-o", "{tmp}/g.png", "--n", "-3"], ["--n"]),
     "gallery n text": (["gallery", "vase", "-o", "{tmp}/g.png", "--n", "many"], ["'many'"]),
+    "gallery seed negative": (["gallery", "vase", "-o", "{tmp}/g.png", "--seed", "-1"], ["--seed", ">= 0"]),
     "bench n zero": (["bench", "program", "vase", "--n", "0"], ["--n"]),
     "bench unknown stage": (["bench", "everything"], ["everything"]),
     "bench unknown domain": (["bench", "program", "nosuch"], ["nosuch"]),
@@ -175,13 +182,19 @@ STEP_CASES = {
     "metrics of a broken parquet": Case(["metrics", "--predictions", "{tmp}/zero.parquet", "-o", "{tmp}/m.parquet", *DATA],
                                         ["zero.parquet", "not a readable parquet"], setup="bad_files",
                                         absent=["m.parquet"]),
+    "rebuild of a foreign parquet": Case(["rebuild", "--predictions", "{tmp}/metrics.parquet", "--shard", "0", *DATA],
+                                         ["metrics.parquet", "not a predictions file"], setup="bad_files",
+                                         absent=["rebuilt"]),
+    "rebuild of ids that escape": Case(["rebuild", "--predictions", "{tmp}/escape.parquet", "--shard", "0", *DATA],
+                                       ["escape.parquet", "'../../../escaped'", "not a plain name"], setup="bad_files",
+                                       absent=["escaped.obj", "rebuilt"]),
     "tables of a broken parquet": Case(["tables", "--metrics", "{tmp}/text.parquet", "-o", "{tmp}/tables", *DATA],
                                        ["text.parquet", "not a readable parquet", "metrics step"], setup="bad_files",
                                        absent=["tables"]),
     "shape with a bad value": Case(["shape", "vase", "height=tall", "-o", "{tmp}/x.obj"],
                                    ["'height=tall'", "name=number"], absent=["x.obj"]),
     "shape with an unknown parameter": Case(["shape", "vase", "no_such_parameter=1", "-o", "{tmp}/x.obj"],
-                                            ["no_such_parameter", "geocode program show vase"], absent=["x.obj"]),
+                                            ["'no_such_parameter'", "geocode program show vase"], absent=["x.obj"]),
 }
 
 RECIPE = ["sample", "paths.data={tmp}/data", "paths.build={build}"]
@@ -194,9 +207,16 @@ RECIPE_CASES = {
 }
 
 
+@pytest.fixture(autouse=True)
+def fresh_logging():
+    """main() sets up logging to the stderr of the moment: this test's captured one."""
+    logging.root.handlers.clear()
+    yield
+    logging.root.handlers.clear()
+
+
 def cli(args: list[str], tmp: Path, build: Path, capsys) -> tuple[int, str]:
     """Run the command line in this process: its exit code and its stderr less log lines."""
-    logging.root.handlers.clear()                 # main() logs to this test's captured stderr
     argv = [a.replace("{tmp}", str(tmp)).replace("{build}", str(build)) for a in args]
     code = main(argv)
     err = capsys.readouterr().err
@@ -430,6 +450,9 @@ def bad_files(tmp: Path, build: Path) -> None:
     torch.save({"weights": torch.zeros(2)}, tmp / "dict.ckpt")
     (tmp / "zero.parquet").write_bytes(b"")
     (tmp / "text.parquet").write_text("id,chamfer\n1,2\n")
+    pd.DataFrame({"id": ["a"], "chamfer": [0.1]}).to_parquet(tmp / "metrics.parquet")
+    keys = dict(condition="pc", modality="pc", source="test", camera="", noise=0.0, sparse=0)
+    pd.DataFrame([{**keys, "id": "../../../escaped"}]).to_parquet(tmp / "escape.parquet")
 
 
 def checkpoint(tmp: Path, build: Path, name: str, change) -> None:

@@ -30,7 +30,7 @@ def cluster(tmp_path: Path) -> tuple[Path, dict]:
         folder.mkdir()
     for tool in TOOLS:
         (bin_dir / tool).symlink_to(STANDIN)
-    env = dict(os.environ, PATH=f"{bin_dir}{os.pathsep}{os.environ['PATH']}", SLURM_STANDIN=str(state))
+    env = dict(os.environ, PATH=f"{bin_dir}{os.pathsep}{os.environ['PATH']}", GEOCODE_SLURM_STANDIN=str(state))
     return work, env
 
 
@@ -41,7 +41,7 @@ def snakemake(work: Path, env: dict, *args: str) -> subprocess.CompletedProcess:
 
 
 def calls(env: dict, tool: str) -> list[list[str]]:
-    lines = (Path(env["SLURM_STANDIN"]) / "calls.jsonl").read_text().splitlines()
+    lines = (Path(env["GEOCODE_SLURM_STANDIN"]) / "calls.jsonl").read_text().splitlines()
     return [call[1:] for call in map(json.loads, lines) if call[0] == tool]
 
 
@@ -50,7 +50,7 @@ def test_the_slurm_profile_plans_the_whole_dag_without_submitting(cluster):
     result = snakemake(work, env, "-n", "results/tables")
     assert result.returncode == 0, result.stderr[-3000:]
     assert "rule train" in result.stdout + result.stderr
-    assert not (Path(env["SLURM_STANDIN"]) / "jobs.jsonl").exists()
+    assert not (Path(env["GEOCODE_SLURM_STANDIN"]) / "jobs.jsonl").exists()
 
 
 def test_the_slurm_profile_submits_real_jobs_with_their_resources(cluster):

@@ -17,31 +17,31 @@ import signal
 import sys
 from pathlib import Path
 
-from geocode.errors import Interrupted, UserError, import_blender, install_stop_handlers
+from geocode.errors import Interrupted, UserError, import_blender, stop_signals_raise
 
 
 def main(argv: list[str] | None = None) -> int:
     # Handlers first: a stop signal that arrives while Blender starts up must wait for it.
-    install_stop_handlers()
-    try:
-        args = parser().parse_args(argv)
-        logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s: %(message)s",
-                            datefmt="%H:%M:%S", stream=sys.stderr)
-        if args.run in BLENDER:
-            import_blender()
-        result = args.run(args)
-        if result is not None:
-            print(json.dumps(result) if getattr(args, "json", False) else format_result(result))
-    except (UserError, KeyboardInterrupt) as exc:
-        if os.environ.get("GEOCODE_DEBUG"):
-            raise
-        return report(exc)
-    except BrokenPipeError:  # the reader left (`geocode config --keys | head`): not an error
-        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+    with stop_signals_raise():
+        try:
+            args = parser().parse_args(argv)
+            logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s: %(message)s",
+                                datefmt="%H:%M:%S", stream=sys.stderr)
+            if args.run in BLENDER:
+                import_blender()
+            result = args.run(args)
+            if result is not None:
+                print(json.dumps(result) if getattr(args, "json", False) else format_result(result))
+        except (UserError, Interrupted, KeyboardInterrupt) as exc:
+            if os.environ.get("GEOCODE_DEBUG"):
+                raise
+            return report(exc)
+        except BrokenPipeError:  # the reader left (`geocode config --keys | head`): not an error
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
     return 0
 
 
-def report(exc: UserError | KeyboardInterrupt) -> int:
+def report(exc: UserError | Interrupted | KeyboardInterrupt) -> int:
     """One line on stderr for a user's mistake (exit 2) or a stop signal (exit 128 + signal)."""
     if isinstance(exc, UserError):
         print(f"geocode: {exc}", file=sys.stderr)
@@ -64,11 +64,13 @@ def format_result(result) -> str:
     return str(result)
 
 
-def count(text: str) -> int:
-    """An argument type: a whole number >= 1."""
-    if not text.isdigit() or int(text) < 1:
-        raise argparse.ArgumentTypeError(f"{text!r}: give a whole number >= 1")
-    return int(text)
+def at_least(low: int):
+    """An argument type: a whole number >= low."""
+    def whole(text: str) -> int:
+        if not text.isdigit() or int(text) < low:
+            raise argparse.ArgumentTypeError(f"{text!r}: give a whole number >= {low}")
+        return int(text)
+    return whole
 
 
 def output_file(text: str) -> Path:
@@ -123,16 +125,16 @@ def parser() -> argparse.ArgumentParser:
     c = sub.add_parser("gallery", help="render 16 random shapes into one PNG")
     c.add_argument("domain", choices=domains)
     c.add_argument("-o", "--output", required=True, type=output_file)
-    c.add_argument("--n", type=count, default=16)
-    c.add_argument("--seed", type=int, default=0)
+    c.add_argument("--n", type=at_least(1), default=16)
+    c.add_argument("--seed", type=at_least(0), default=0)
     c.set_defaults(run=cmd_gallery)
 
     c = sub.add_parser("bench", help="measure a stage's throughput")
     c.add_argument("stage", choices=["program", "dataset", "train", "epoch", "eval"])
     c.add_argument("domain", nargs="?", default="vase", choices=domains)
-    c.add_argument("--n", type=count, default=200)
-    c.add_argument("--clouds", type=count, default=9330, help="epoch: clouds per epoch (paper-scale vase)")
-    c.add_argument("--sketches", type=count, default=18660, help="epoch: sketches per epoch")
+    c.add_argument("--n", type=at_least(1), default=200)
+    c.add_argument("--clouds", type=at_least(1), default=9330, help="epoch: clouds per epoch (paper-scale vase)")
+    c.add_argument("--sketches", type=at_least(1), default=18660, help="epoch: sketches per epoch")
     c.add_argument("--device", default="auto", help="epoch: auto (a GPU where there is one), cpu or cuda")
     c.add_argument("--json", action="store_true")
     c.set_defaults(run=cmd_bench)
@@ -149,7 +151,7 @@ def parser() -> argparse.ArgumentParser:
     c.add_argument("--out", type=output_folder, help="run folder (default: <paths.runs>/<domain>/<variant>)")
     c.set_defaults(run=cmd_train)
     c = sub.add_parser("simplify", help=f"decimate the test meshes into split test-s<factor> ({step})")
-    c.add_argument("--factor", required=True, type=count, help="one of eval.simplify")
+    c.add_argument("--factor", required=True, type=at_least(1), help="one of eval.simplify")
     c.set_defaults(run=cmd_simplify)
     c = sub.add_parser("predict", help=f"predict every test condition with a checkpoint ({step})")
     c.add_argument("--checkpoint", required=True, type=Path)

@@ -46,15 +46,19 @@ def compose(overrides: Sequence[str] = ()) -> DictConfig:
     from hydra import initialize_config_dir
     from hydra.core.global_hydra import GlobalHydra
     from hydra.errors import HydraException
+    from omegaconf.errors import OmegaConfBaseException
 
     GlobalHydra.instance().clear()
     try:
         with initialize_config_dir(str(repo_root() / "conf"), version_base="1.3"):
             cfg = hydra_compose("config", overrides=list(overrides))
-    except HydraException as exc:
+    except (HydraException, ValueError) as exc:  # Hydra's override parser raises ValueError too
         first = str(exc).strip().splitlines()[0]
         raise ConfigError(f"conf/: {first}; {KEYS_HINT} for the groups and keys") from None
-    validate(cfg)
+    try:
+        validate(cfg)
+    except OmegaConfBaseException as exc:       # e.g. an interpolation ${...} that resolves to nothing
+        raise ConfigError(exc.full_key or "conf/", str(exc).strip().splitlines()[0], KEYS_HINT) from None
     return cfg
 
 
@@ -67,39 +71,37 @@ class Setting:
     ok: Callable[[object], bool]
 
 
-def _whole(low: int) -> tuple[str, Callable]:
+Rule = tuple[str, Callable[[object], bool]]    # (expect, ok) of a Setting
+
+
+def _whole(low: int) -> Rule:
     return f"a whole number >= {low}", lambda v: isinstance(v, int) and not isinstance(v, bool) and v >= low
 
 
-def _number(low: float, high: float = math.inf, above: bool = False) -> tuple[str, Callable]:
+def _number(low: float, high: float = math.inf, above: bool = False) -> Rule:
     words = f"a number {'>' if above else '>='} {low:g}" + (f" and <= {high:g}" if high < math.inf else "")
     return words, lambda v: (isinstance(v, (int, float)) and not isinstance(v, bool)
                              and (v > low if above else v >= low) and v <= high)
 
 
-def _optional(rule: tuple[str, Callable]) -> tuple[str, Callable]:
+def _optional(rule: Rule) -> Rule:
     return f"null or {rule[0]}", lambda v: v is None or rule[1](v)
 
 
-def _each(rule: tuple[str, Callable]) -> tuple[str, Callable]:
+def _each(rule: Rule) -> Rule:
     return f"a list, each {rule[0]}", lambda v: isinstance(v, ListConfig | list) and all(rule[1](x) for x in v)
 
 
-NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_-]*")  # stays one path component: no /, no ..
-_NAME = ("a name of letters, digits, _ and -", lambda v: isinstance(v, str) and NAME.fullmatch(v) is not None)
+NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]*")  # stays one path component: no /, not . or ..
+_NAME = ("a name of letters, digits, _, - and .", lambda v: isinstance(v, str) and NAME.fullmatch(v) is not None)
 _TEXT = ("a text", lambda v: isinstance(v, str) and v != "")
 _FLAG = ("true or false", lambda v: isinstance(v, bool))
 _FRACTION = _number(0, 1)
-_SHAPES = ("null (all) or a whole number >= 1", _optional(_whole(1))[1])
+_SHAPES = _optional(_whole(1))
 _CHANNELS = ("a list of whole numbers >= 1 and M (2x2 max-pool)",
-             lambda v: _each(_whole(1))[1]([x for x in v if x != "M"]) if isinstance(v, ListConfig) else False)
+             lambda v: isinstance(v, ListConfig) and all(x == "M" or _whole(1)[1](x) for x in v))
 
-
-def _setting(meaning: str, rule: tuple[str, Callable]) -> Setting:
-    return Setting(meaning, *rule)
-
-
-SETTINGS = {key: _setting(*spec) for key, spec in {
+SETTINGS = {key: Setting(meaning, *rule) for key, (meaning, rule) in {
     "seed": ("seed of every random draw: sampling, clouds, sketch jitter, training", _whole(0)),
     "profile_name": ("the profile in use; names the data and runs folders", _NAME),
     "domains": ("domains the workflow fans out over; null: every program with a recipe",
@@ -123,7 +125,7 @@ SETTINGS = {key: _setting(*spec) for key, spec in {
     "data.sketch.jitter": ("+- degrees of seeded camera jitter", _number(0, 45)),
     "data.sketch.cameras": ("cameras: {name, azimuth in degrees, train: true for the training views}",
                             ("a list of {name, azimuth, train}", lambda v: isinstance(v, ListConfig))),
-    "model._target_": ("the LightningModule class to build", ("one of the project's model classes", lambda v: True)),
+    "model._target_": ("the LightningModule class to build", ("one of the project's model classes", _TEXT[1])),
     "model.variant": ("decoders: joint, separate, regression or huang (choose it with model=<variant>)", _NAME),
     "model.k": ("DGCNN neighbours per point", _whole(1)),
     "model.edge_channels": ("channels of the EdgeConv layers", _each(_whole(1))),
@@ -180,7 +182,9 @@ def validate(cfg: DictConfig) -> None:
     """Fail before any work, naming the key, on a value that cannot be right."""
     values = flat(cfg)
     for key, setting in SETTINGS.items():
-        if key in values and not setting.ok(values[key]):
+        if key not in values:
+            raise ConfigError(key, "missing (a group above it was replaced by a value)", f"give {setting.expect}")
+        if not setting.ok(values[key]):
             raise ConfigError(f"{key}={values[key]}", "out of range", f"give {setting.expect}")
     pts = cfg.data.points
     if not pts.fps <= pts.surface or not pts.train_random <= pts.random:
@@ -203,13 +207,13 @@ def _check_cameras(cameras) -> None:
 
 
 def _check_known(cfg: DictConfig) -> None:
-    """Names that become folders or imports come from a known set."""
+    """Names that become folders or imports come from a known set (domain.name is only a
+    name: a step may work from a manifest and a recipe without the program)."""
     known = registered_domains()
-    for key, names in (("domain.name", [cfg.domain.name]), ("domains", cfg.domains or [])):
-        for name in names:
-            if name not in known:
-                raise ConfigError(f"{key}={name}", f"no such domain in {programs_dir()}",
-                                  f"use one of {', '.join(known) or 'none (add a program and its recipe)'}")
+    for name in cfg.domains or []:
+        if name not in known:
+            raise ConfigError(f"domains={name}", f"no such domain in {programs_dir()}",
+                              f"use one of {', '.join(known) or 'none (add a program and its recipe)'}")
     variants = group_options("model")
     for key, names in (("model.variant", [cfg.model.variant]), ("eval.variants", cfg.eval.variants)):
         for name in names:

@@ -2,7 +2,7 @@
 
 A `UserError` is one line, `<file or key>: <problem>; <fix>`: the command line prints it and
 exits with 2. Anything else is a bug and keeps its traceback. Ctrl-C and SIGTERM raise
-`Interrupted`, which unwinds like Ctrl-C (temporary files are removed) and ends the command
+`Interrupted`, which unwinds the stack (temporary files are removed) and ends the command
 with one line and exit code 128 + the signal's number (130, 143).
 """
 
@@ -31,8 +31,9 @@ def one_line(exc: BaseException, limit: int = 160) -> str:
     return " ".join(str(exc).split())[:limit] or type(exc).__name__
 
 
-class Interrupted(KeyboardInterrupt):
-    """Ctrl-C or SIGTERM; `signum` says which."""
+class Interrupted(BaseException):
+    """Ctrl-C or SIGTERM; `signum` says which. Not a KeyboardInterrupt: Lightning turns that
+    into exit code 1, but lets any other BaseException through after its clean-up."""
 
     def __init__(self, signum: int = signal.SIGINT):
         super().__init__(signal.Signals(signum).name)
@@ -43,10 +44,15 @@ def _interrupt(signum, _frame):
     raise Interrupted(signum)
 
 
-def install_stop_handlers() -> None:
-    """Ctrl-C and SIGTERM (how Snakemake stops a job) both raise `Interrupted`."""
-    for sig in STOP_SIGNALS:
-        signal.signal(sig, _interrupt)
+@contextmanager
+def stop_signals_raise():
+    """In the block, Ctrl-C and SIGTERM (how Snakemake stops a job) raise `Interrupted`."""
+    previous = {sig: signal.signal(sig, _interrupt) for sig in STOP_SIGNALS}
+    try:
+        yield
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
 
 
 @contextmanager

@@ -17,7 +17,8 @@ import numpy as np
 import pandas as pd
 from omegaconf import DictConfig
 
-from geocode.config import data_dir, simplified_split
+from geocode.config import NAME, data_dir, simplified_split
+from geocode.errors import UserError
 from geocode.meshio import (
     REDO_EXPORT,
     normalise_unit_sphere,
@@ -150,13 +151,25 @@ def mean_shape(cfg: DictConfig, domain: str, recipe) -> pd.DataFrame:
                                          camera="", noise=0.0, sparse=0, id="mean-shape")
 
 
+def read_predictions(path: Path) -> pd.DataFrame:
+    table = read_parquet(path, "rerun the predict step")
+    missing = [k for k in KEYS if k not in table]
+    if missing:
+        raise UserError(path, f"no column {missing[0]!r}: not a predictions file", "give the predict step's output")
+    names = pd.concat([table["condition"], table["id"]]).astype(str)
+    bad = names[~names.str.fullmatch(NAME.pattern)]
+    if len(bad):  # they become folder and file names
+        raise UserError(path, f"condition or id {bad.iloc[0]!r} is not a plain name", "give the predict step's output")
+    return table
+
+
 # -- rebuilding ---------------------------------------------------------------------------------
 
 def rebuild_step(cfg: DictConfig, domain: str, predictions: Path, shard: int) -> str:
     """Rebuild every n-th prediction with the program: <eval>/rebuilt/<condition>/<id>.obj."""
     from geocode.blender.rebuild import rebuild
 
-    table = read_parquet(predictions, "rerun the predict step").iloc[shard::cfg.data.shards]
+    table = read_predictions(predictions).iloc[shard::cfg.data.shards]
     names = [c for c in table.columns if c not in KEYS]
     out_dir = Path(predictions).parent / "rebuilt"
     jobs = [(f"{r['condition']}/{r['id']}", {n: r[n] for n in names}) for r in table.to_dict("records")]
@@ -173,7 +186,7 @@ def metrics_step(cfg: DictConfig, domain: str, predictions: Path, out: Path) -> 
     from geocode.metrics import chamfer_meshes
     from geocode.stability import drop_test
 
-    table = read_parquet(predictions, "rerun the predict step")
+    table = read_predictions(predictions)
     rebuilt = Path(predictions).parent / "rebuilt"
     variant = Path(predictions).parent.parent.name          # <runs>/<domain>/<variant>/eval/
     gt_dir = data_dir(cfg, domain, "test") / "shapes"

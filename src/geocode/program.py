@@ -46,12 +46,12 @@ def _import_program(domain: str) -> ModuleType:
     path = programs_dir() / f"{domain}.py"
     if not path.exists():
         known = ", ".join(registry()) or "none"
-        raise UserError(path, "no such program", f"use one of the known domains: {known}")
+        raise UserError(f"{path}: no such program; known domains: {known}")
     spec = importlib.util.spec_from_file_location(f"geocode_programs.{domain}", path)
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     if not callable(getattr(module, "build", None)):
-        raise UserError(path, "defines no build(g) function", "add one")
+        raise UserError(f"{path}: defines no build(g) function; add one")
     return module
 
 
@@ -108,7 +108,8 @@ class Program:
         for name, value in values.items():
             parameter = self._by_name.get(name)
             if parameter is None:
-                raise UserError(name, f"unknown parameter of program {self.domain!r}", f"see `geocode program show {self.domain}`")
+                raise UserError(f"unknown parameter {name!r} for program {self.domain!r}; "
+                                f"see `geocode program show {self.domain}`")
             full[name] = _checked(parameter, value)
         return full
 
@@ -236,8 +237,8 @@ def _checked(parameter: Parameter, value) -> float:
     whole = parameter.kind == "float" or abs(number - round(number)) < 1e-6
     if not (in_range and whole):
         what = {"float": "a number", "int": "an integer", "bool": "0 or 1"}[parameter.kind]
-        raise UserError(f"{parameter.name}={value!r}", "is invalid",
-                        f"give {what} in [{parameter.min:g}, {parameter.max:g}]")
+        raise UserError(f"{parameter.name}={value!r} is invalid: give {what} in "
+                        f"[{parameter.min:g}, {parameter.max:g}]")
     number = min(max(number, parameter.min), parameter.max)
     return number if parameter.kind == "float" else float(round(number))
 

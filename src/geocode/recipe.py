@@ -346,8 +346,9 @@ class Recipe:
         """Every program parameter: the given values over the defaults."""
         unknown = [name for name in values if name not in self.defaults]
         if unknown:
-            raise ValueError(
-                f"unknown parameter {unknown[0]!r}; the program has {_some(self.defaults)}"
+            raise UserError(
+                f"unknown parameter {unknown[0]!r}", f"the program has {_some(self.defaults)}",
+                "rerun the sample step if the program changed",
             )
         return {**self.defaults, **{name: float(v) for name, v in values.items()}}
 
@@ -394,7 +395,7 @@ class Recipe:
         """Columns for `Expr.evaluate_array`: recipe parameters from `frame`, defaults for the rest."""
         missing = [name for name in self.names if name not in frame]
         if missing:
-            raise ValueError(f"no column for recipe parameter {missing[0]!r}")
+            raise UserError(f"recipe parameter {missing[0]!r}", "no column for it", "rerun the sample step")
         given = {name: np.asarray(frame[name], dtype=np.float64) for name in self.names}
         return {**self.defaults, **given}
 

@@ -240,7 +240,7 @@ def load_model(checkpoint: str | Path, map_location="cpu", recipe=None) -> GeoCo
         model = GeoCodeModule(**ckpt["hyper_parameters"])
         model.load_state_dict(ckpt["state_dict"])
     except (TypeError, ValueError, RuntimeError, KeyError) as exc:
-        raise CheckpointError(checkpoint, f"does not fit the model ({one_line(exc)})", "retrain or pick another file") from None
+        raise CheckpointError(checkpoint, f"checkpoint does not fit the model ({one_line(exc)})", "retrain or pick another file") from None
     return model.eval()
 
 

@@ -2,7 +2,7 @@
 """A stand-in for SLURM's commands, for tests on a machine without a cluster.
 
 Linked as sbatch, srun, squeue, sacct, sinfo, sacctmgr, sshare, scontrol and scancel. Every
-call's arguments go to `$SLURM_STANDIN/calls.jsonl`; `sbatch` runs the job at once, locally,
+call's arguments go to `$GEOCODE_SLURM_STANDIN/calls.jsonl`; `sbatch` runs the job at once, locally,
 with its output in the requested log file, and records its final state, which `sacct` and
 `squeue` then report as SLURM does (`<id>|<STATE>`).
 """
@@ -13,7 +13,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-STATE = Path(os.environ["SLURM_STANDIN"])
+STATE = Path(os.environ["GEOCODE_SLURM_STANDIN"])
 JOBS = STATE / "jobs.jsonl"
 
 
