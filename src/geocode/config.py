@@ -199,7 +199,7 @@ def _check_cameras(cameras) -> None:
               and _number(-360, 360)[1](camera.get("azimuth")) and isinstance(camera.get("train", False), bool))
         if not ok:
             raise ConfigError(f"data.sketch.cameras[{i}]={camera}", "not a camera",
-                              "give {name: <letters, digits, _ or ->, azimuth: <degrees>, train: true|false}")
+                              "give {name: <a plain name>, azimuth: <degrees>, train: true|false}")
     names = [c.name for c in cameras]
     if len(set(names)) != len(names) or not any(c.get("train", False) for c in cameras):
         raise ConfigError("data.sketch.cameras", "camera names repeat or none has train: true",
@@ -233,7 +233,7 @@ def _targets(node) -> list[str]:
     """Every `_target_` in a config (the classes Hydra would import and call)."""
     if isinstance(node, DictConfig):
         found = [str(node["_target_"])] if "_target_" in node else []
-        return found + [t for key in node if key != "_target_" for t in _targets(node._get_node(key))]
+        return found + [t for key, value in node.items() if key != "_target_" for t in _targets(value)]
     if isinstance(node, ListConfig):
         return [t for item in node for t in _targets(item)]
     return []
