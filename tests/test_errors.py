@@ -388,7 +388,7 @@ def handlers_installed(pid: int) -> bool:
 
 def blender_loading(pid: int) -> bool:
     """Whether Blender's library is mapped into the process (its start-up has begun)."""
-    return "bpy" in Path(f"/proc/{pid}/maps").read_text()
+    return "/bpy/" in Path(f"/proc/{pid}/maps").read_text()  # site-packages/bpy/, not libpython
 
 
 @pytest.mark.skipif(not Path("/proc/self/status").exists(), reason="needs Linux's /proc to time the signal")
