@@ -161,6 +161,11 @@ STEP_CASES = {
                                absent=["run"]),
     "train with a foreign class": Case(["train", "--out", "{tmp}/run", *DATA, "model._target_=builtins.print"],
                                        ["_target_=builtins.print"], absent=["run"]),
+    "train on a GPU that is not there": Case(
+        ["train", "--out", "{tmp}/run", "paths.data={tmp}/data", "paths.build={tmp}/build", "domain.name=toy",
+         "domain.recipe={tmp}/programs/toy.yaml", "profile=smoke", "data.points.train_random=32",
+         "train.accelerator=cuda", "train.devices=1"],
+        ["train.accelerator=cuda", "choose what this machine has"], setup="toy_dataset", absent=["run"]),
     "predict without checkpoint": Case(["predict", "--checkpoint", "{tmp}/none.ckpt", "-o", "{tmp}/p.parquet", *DATA],
                                        ["none.ckpt", "not found"], absent=["p.parquet"]),
     "predict zero-byte checkpoint": Case(["predict", "--checkpoint", "{tmp}/zero.ckpt", "-o", "{tmp}/p.parquet", *DATA],
@@ -497,4 +502,11 @@ def other_heads(tmp: Path, build: Path) -> None:
     checkpoint(tmp, build, "old.ckpt", older)
 
 
-SETUPS = {f.__name__: f for f in (nan_mesh, empty_mesh, broken_manifest, bad_files, other_grid, other_heads)}
+def toy_dataset(tmp: Path, build: Path) -> None:
+    from test_training_data import make_dataset
+
+    make_dataset(tmp)
+
+
+SETUPS = {f.__name__: f for f in (nan_mesh, empty_mesh, broken_manifest, bad_files, other_grid, other_heads,
+                                  toy_dataset)}

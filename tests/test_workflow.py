@@ -57,7 +57,7 @@ def test_paper_profile_plans_the_whole_dag(tmp_path):
 def test_bad_config_stops_before_any_job_with_one_line(tmp_path):
     result = snakemake(tmp_path, "-n", "results/tables", "--config", "data={shards: 0}", check=False)
     assert result.returncode != 0
-    assert "data.shards=0: give a whole number >= 1" in result.stdout + result.stderr
+    assert "data.shards=0: out of range; give a whole number >= 1" in result.stdout + result.stderr
     assert not (tmp_path / "data").exists()
 
 

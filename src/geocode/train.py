@@ -140,11 +140,11 @@ def train(cfg: DictConfig, out_dir: str | Path | None = None) -> dict:
     resume = last if last.exists() else None
     if resume is not None:
         check_compatible(resume, model)
-    write_text(out / "config.yaml", OmegaConf.to_yaml(cfg, resolve=True))  # the run folder's first file
     best_cb = ModelCheckpoint(dirpath=ckpt_dir, filename="best", monitor="val/acc", mode="max",
                               save_last=True, enable_version_counter=False)
     progress = t.get("progress_bar")
-    trainer = pl.Trainer(
+    trainer = trainer_for(
+        t,
         max_epochs=int(t.max_epochs),
         accelerator=t.get("accelerator", "auto"),
         devices=t.get("devices", "auto"),
@@ -159,6 +159,7 @@ def train(cfg: DictConfig, out_dir: str | Path | None = None) -> dict:
         log_every_n_steps=int(t.get("log_every_n_steps", 10)),
         num_sanity_val_steps=0,
     )
+    write_text(out / "config.yaml", OmegaConf.to_yaml(cfg, resolve=True))  # the run folder's first file
     trainer.fit(model, datamodule=data, ckpt_path=resume, weights_only=True)
     score = best_cb.best_model_score
     result = {
@@ -172,6 +173,18 @@ def train(cfg: DictConfig, out_dir: str | Path | None = None) -> dict:
     }
     log.info("trained %s: %s", cfg.domain.name, result)
     return result
+
+
+def trainer_for(t: DictConfig, **settings) -> pl.Trainer:
+    """A Lightning Trainer; an accelerator or device count this machine lacks is the user's
+    config to fix (before the run folder is made)."""
+    from lightning_fabric.utilities.exceptions import MisconfigurationException
+
+    try:
+        return pl.Trainer(**settings)
+    except MisconfigurationException as exc:
+        raise UserError(f"train.accelerator={t.accelerator}, train.devices={t.devices}", one_line(exc),
+                        "choose what this machine has (auto finds it)") from None
 
 
 def majority_accuracy(cfg: DictConfig, recipe) -> float:
