@@ -17,7 +17,8 @@ overall scale. Structure (every part touches the rest for every parameter combin
   and a pad, or a loop (MeshQuadraticPolarFrame) from the frame down into the seat;
 - the chair is scaled per axis and grounded so that its lowest point lies on z = 0.
 Selectors reach the geometry only through Switch / Index Switch nodes, so visibility rules
-are inferred from the graph.
+are inferred from the graph. In Blender's node editor each part is a node group: Seat,
+Back Frame, Cushion, Legs, Monoleg, Backrest, Armrests.
 """
 
 from __future__ import annotations
@@ -27,9 +28,9 @@ import math
 from geocode.nodes import Graph, mirror, radial, rectangle_fillet, sample_curve, sample_curve_array
 from geocode.nodes.parts import (
     cross_rail,
-    cushion,
+    cushion_mesh,
     frame_fixed_bottom,
-    leg,
+    leg_mesh,
     quadratic_cartesian_aligned_xy_frame,
     quadratic_cartesian_mesh,
     quadratic_polar_frame,
@@ -127,50 +128,54 @@ def _parameters(g: Graph) -> dict:
 
 
 class _Chair:
-    """Quantities shared between parts, so that every attached part follows edits."""
+    """The seat and the anchors the other parts follow, so that every attached part
+    follows edits: the seat corner, a height inside the slab, and the back frames' x."""
 
     def __init__(self, g: Graph, p: dict):
         self.g, self.p = g, p
         self.seat = seat(g, width=SEAT_SIZE, depth=SEAT_SIZE, roundness=p["seat_roundness"],
                          top=p["seat_height"], thickness=p["seat_thickness"],
                          bevel=p["seat_bevel"], part=SEAT)
-        corner = g.separate(self.seat["Corner"])
-        self.corner_x, self.corner_y = corner["X"], corner["Y"]
+        corner = self.seat["Corner"]
+        self.corner_x = g.named("corner x", corner.x)
+        self.corner_y = g.named("corner y", corner.y)
         # attachments start inside the slab: halfway down from its top
-        self.inside = g.sub(p["seat_height"], g.mul(p["seat_thickness"], SINK))
+        self.inside = g.named("inside", p["seat_height"] - p["seat_thickness"] * SINK)
         # x of the right frame's axis: inside the seat corner, moved in by the offset
-        x = g.sub(self.corner_x, g.mul(p["frame_width"], 0.5))
-        self.frame_x = g.mul(x, g.sub(1.0, p["back_frame_offset"]))
-        self.frame_curve, self.frame = self._frame()
+        x = self.corner_x - p["frame_width"] * 0.5
+        self.frame_x = g.named("frame x", x * (1.0 - p["back_frame_offset"]))
 
     # -- backrest frame -------------------------------------------------------------------
 
     def above_seat(self, share):
         """The frame's factor at `share` of its part above the seat's top (the frame starts
         inside the slab), so attachments never vanish into the seat."""
-        g, p = self.g, self.p
-        sunk = g.mul(p["seat_thickness"], SINK)
-        start = g.div(sunk, g.add(p["backrest_height"], sunk))
-        return g.lerp(start, 1.0, share)
+        p = self.p
+        sunk = p["seat_thickness"] * SINK
+        start = sunk / (p["backrest_height"] + sunk)
+        return self.g.lerp(start, 1.0, share)
 
-    def _frame(self):
+    def build_frame(self):
+        """The right back frame: from inside the seat's back corner (moved in by `frame_x`)
+        up by `backrest_height` (+ the sunk share of the slab), leaning back by
+        `backrest_slant` x rise and bowed back by `backrest_curvature` x rise / 4."""
         g, p = self.g, self.p
-        y = g.sub(self.corner_y, g.mul(p["frame_depth"], 0.5))
-        rise = g.add(p["backrest_height"], g.mul(p["seat_thickness"], SINK))
-        bottom = g.combine(self.frame_x, y, self.inside)
-        top = g.vmath("ADD", bottom, g.combine(0.0, g.mul(p["backrest_slant"], rise), rise))
-        bow = g.combine(0.0, g.mul(p["backrest_curvature"], g.mul(rise, 0.25)), 0.0)
+        y = self.corner_y - p["frame_depth"] * 0.5
+        rise = p["backrest_height"] + p["seat_thickness"] * SINK
+        bottom = g.vec(self.frame_x, y, self.inside)
+        top = bottom + g.vec(0.0, p["backrest_slant"] * rise, rise)
+        bow = g.vec(0.0, p["backrest_curvature"] * (rise * 0.25), 0.0)
         frame = quadratic_cartesian_aligned_xy_frame(
             g, start=bottom, end=top, offset=bow, width=p["frame_width"],
             depth=p["frame_depth"], roundness=p["frame_roundness"], bevel=p["rail_bevel"],
             part=BACK_FRAME)
-        return frame["Curve"], frame["Mesh"]
+        self.frame_curve = g.named("frame path", frame["Curve"])
+        self.frame = frame["Mesh"]
 
     def frame_sweep(self, width, depth, roundness, part):
         """The frame's path moved to x = 0 and swept with another profile (panels, rails)."""
         g = self.g
-        centred = g.transform(self.frame_curve,
-                              translation=g.combine(g.mul(self.frame_x, -1.0), 0.0, 0.0))
+        centred = g.transform(self.frame_curve, translation=g.vec(-self.frame_x, 0.0, 0.0))
         profile = rectangle_fillet(g, width=width, height=depth, roundness=roundness,
                                    resolution=2)["Curve"]
         return aligned_bevel_xy(g, curve=centred, profile_curve=profile, radius=1.0,
@@ -178,58 +183,60 @@ class _Chair:
 
 
 def _cushion(c: _Chair):
+    """When `cushion`: a pillow on the seat's outline, its bottom sunk 20% of the slab."""
     g, p = c.g, c.p
-    pillow = cushion(g, width=SEAT_SIZE * 0.97, depth=SEAT_SIZE * 0.97,
-                     roundness=p["seat_roundness"],
-                     bottom=g.sub(p["seat_height"], g.mul(p["seat_thickness"], 0.2)),
-                     thickness=p["cushion_thickness"], fill=p["cushion_fill"], part=CUSHION)
-    return g.switch(p["cushion"], None, pillow["Mesh"], data_type="GEOMETRY")
+    pillow = cushion_mesh(g, width=SEAT_SIZE * 0.97, depth=SEAT_SIZE * 0.97,
+                          roundness=p["seat_roundness"],
+                          bottom=p["seat_height"] - p["seat_thickness"] * 0.2,
+                          thickness=p["cushion_thickness"], fill=p["cushion_fill"],
+                          part=CUSHION)
+    return g.switch(p["cushion"], None, pillow["Mesh"])
 
 
 # -- legs -------------------------------------------------------------------------------------
 
 def _four_legs(c: _Chair):
-    """The right front and back legs (the left ones come from the chair's mirror)."""
+    """Unless `monoleg`: the right front and back legs (the left ones come from the chair's
+    mirror), from inside the slab at the seat corner moved in by 1.2 radii, to feet spread
+    by `leg_splay` (the back ones `back_leg_offset` further back)."""
     g, p = c.g, c.p
-    inset = g.mul(p["leg_thickness"], LEG_INSET)
-    x, y = g.sub(c.corner_x, inset), g.sub(c.corner_y, inset)
+    inset = p["leg_thickness"] * LEG_INSET
+    x, y = c.corner_x - inset, c.corner_y - inset
     splay = p["leg_splay"]
-    feet = {"front": g.combine(g.add(x, splay), g.sub(g.mul(y, -1.0), splay), 0.0),
-            "back": g.combine(g.add(x, splay), g.add(g.add(y, splay), p["back_leg_offset"]),
-                              0.0)}
-    tops = {"front": g.combine(x, g.mul(y, -1.0), c.inside), "back": g.combine(x, y, c.inside)}
-    legs = [leg(g, top=tops[k], bottom=feet[k], curvature=p["leg_curvature"],
-                top_radius=p["leg_thickness"],
-                bottom_radius=g.mul(p["leg_thickness"], p["leg_taper"]),
-                roundness=p["leg_bevel"], part=LEGS)["Mesh"] for k in ("front", "back")]
-    return g.join(legs)
+    feet = {"front": g.vec(x + splay, -y - splay, 0.0),
+            "back": g.vec(x + splay, y + splay + p["back_leg_offset"], 0.0)}
+    tops = {"front": g.vec(x, -y, c.inside), "back": g.vec(x, y, c.inside)}
+    legs = [leg_mesh(g, top=tops[k], bottom=feet[k], curvature=p["leg_curvature"],
+                     top_radius=p["leg_thickness"],
+                     bottom_radius=p["leg_thickness"] * p["leg_taper"],
+                     roundness=p["leg_bevel"], part=LEGS)["Mesh"] for k in ("front", "back")]
+    return g.switch(p["monoleg"], g.join(legs), None)
 
 
 def _monoleg(c: _Chair):
-    """A column under the seat's centre whose silhouette is a Bezier profile; with tent
-    legs its foot is lifted and the legs, joined into it, carry the chair."""
+    """When `monoleg`: a column under the seat's centre whose silhouette is a Bezier profile;
+    with tent legs its foot is lifted by `TENT_HUB` and the legs, joined into it, carry the
+    chair."""
     g, p = c.g, c.p
-    foot = g.switch(p["tent_legs"], 0.0, TENT_HUB, data_type="FLOAT")
-    path = g.node("GeometryNodeResampleCurve", {
-        "Curve": g.node("GeometryNodeCurvePrimitiveLine", {
-            "Start": g.combine(0.0, 0.0, c.inside), "End": g.combine(0.0, 0.0, foot)}),
-        "Mode": "Count", "Count": 12}).out
+    foot = g.switch(p["tent_legs"], 0.0, TENT_HUB)
+    path = g.line(g.vec(0.0, 0.0, c.inside), g.vec(0.0, 0.0, foot), count=12)
     profile = rectangle_fillet(g, width=2.0, height=2.0, roundness=1.0,
                                resolution=3)["Curve"]
     column = bezier_segment_style(
         g, curve=path, profile_curve=profile, start=p["monoleg_top_radius"],
         start_handle=p["monoleg_top_handle"], end_handle=p["monoleg_bottom_handle"],
         end=p["monoleg_bottom_radius"], fill_caps=True, part=MONOLEG)["Mesh"]
-    return g.join([column, g.switch(p["tent_legs"], None, _tent_legs(c, foot),
-                                    data_type="GEOMETRY")])
+    monoleg = g.join([column, g.switch(p["tent_legs"], None, _tent_legs(c, foot))])
+    return g.switch(p["monoleg"], None, monoleg)
 
 
 def _tent_legs(c: _Chair, foot):
+    """`tent_leg_count` legs from 3 cm above the column's foot out to `tent_leg_spread`."""
     g, p = c.g, c.p
-    hub = g.combine(0.0, 0.0, g.add(foot, 0.03))
-    toe = g.combine(p["tent_leg_spread"], 0.0, 0.0)
+    hub = g.vec(0.0, 0.0, foot + 0.03)
+    toe = g.vec(p["tent_leg_spread"], 0.0, 0.0)
     # the middle control point above the toe: the leg stands vertically on the floor
-    offset = g.combine(g.mul(p["tent_leg_spread"], 0.5), 0.0, 0.0)
+    offset = g.vec(p["tent_leg_spread"] * 0.5, 0.0, 0.0)
     one = quadratic_cartesian_mesh(g, start=hub, end=toe, offset=offset,
                                    radius=p["tent_leg_thickness"], roundness=1.0,
                                    axis=(0.0, 1.0, 0.0), part=TENT_LEGS)["Mesh"]
@@ -241,10 +248,12 @@ def _tent_legs(c: _Chair, foot):
 # -- backrest -------------------------------------------------------------------------------
 
 def _cross_rails(c: _Chair):
+    """`cross_rail_count` rails between the frames, spread from `cross_rail_bottom_offset`
+    to `cross_rail_top_offset` of the frame above the seat."""
     g, p = c.g, c.p
     points = sample_curve_array(g, curve=c.frame_curve, count=p["cross_rail_count"],
                                 start_margin=c.above_seat(p["cross_rail_bottom_offset"]),
-                                end_margin=g.sub(1.0, c.above_seat(p["cross_rail_top_offset"])),
+                                end_margin=1.0 - c.above_seat(p["cross_rail_top_offset"]),
                                 )["Points"]
     return cross_rail(g, points=points, half_length=c.frame_x,
                       thickness_y=p["cross_rail_thickness_y"],
@@ -253,44 +262,46 @@ def _cross_rails(c: _Chair):
 
 
 def _vertical_rails(c: _Chair):
-    """Copies of the frame's path spread evenly between the two frames."""
+    """`vertical_rail_count` copies of the frame's path spread evenly between the two
+    frames (margins 1 / (count + 1) of the span)."""
     g, p = c.g, c.p
-    one = c.frame_sweep(p["vertical_rail_size"], g.mul(p["frame_depth"], 0.6),
+    one = c.frame_sweep(p["vertical_rail_size"], p["frame_depth"] * 0.6,
                         p["vertical_rail_roundness"], VERTICAL_RAILS)
     x = c.frame_x
-    across = g.node("GeometryNodeCurvePrimitiveLine", {
-        "Start": g.combine(g.mul(x, -1.0), 0.0, 0.0), "End": g.combine(x, 0.0, 0.0)}).out
-    margin = g.div(1.0, g.add(p["vertical_rail_count"], 1.0))
+    across = g.line(g.vec(-x, 0.0, 0.0), g.vec(x, 0.0, 0.0))
+    margin = 1.0 / (p["vertical_rail_count"] + 1.0)
     points = sample_curve_array(g, curve=across, count=p["vertical_rail_count"],
                                 start_margin=margin, end_margin=margin)["Points"]
-    rails = g.node("GeometryNodeInstanceOnPoints", {"Points": points, "Instance": one})
-    return g.node("GeometryNodeRealizeInstances", {"Geometry": rails}).out
+    return g.instance_on_points(points, one)
 
 
 def _top_rail(c: _Chair):
+    """When `top_rail`: a rail over the frames' top ends, reaching their outer sides."""
     g, p = c.g, c.p
     end = sample_curve(g, curve=c.frame_curve, factor=1.0)
     mesh = top_rail(g, center=end["Position"], tangent=end["Tangent"],
-                    half_length=g.add(c.frame_x, g.mul(p["frame_width"], 0.5)),
+                    half_length=c.frame_x + p["frame_width"] * 0.5,
                     size=p["top_rail_size"], depth=p["top_rail_depth"],
                     roundness=p["top_rail_roundness"], fill=p["top_rail_fill"],
                     part=TOP_RAIL)["Mesh"]
-    return g.switch(p["top_rail"], None, mesh, data_type="GEOMETRY")
+    return g.switch(p["top_rail"], None, mesh)
 
 
 def _backrest(c: _Chair):
+    """Between the frames: a solid panel (`backrest_solid`), else cross or vertical rails
+    with the optional top rail."""
     g, p = c.g, c.p
-    rails = g.switch(p["vertical_rails"], _cross_rails(c), _vertical_rails(c),
-                     data_type="GEOMETRY")
+    rails = g.switch(p["vertical_rails"], _cross_rails(c), _vertical_rails(c))
     open_back = g.join([rails, _top_rail(c)])
-    panel = c.frame_sweep(g.mul(c.frame_x, 2.0), p["solid_thickness"], 0.0, BACK_PANEL)
-    return g.switch(p["backrest_solid"], open_back, panel, data_type="GEOMETRY")
+    panel = c.frame_sweep(c.frame_x * 2.0, p["solid_thickness"], 0.0, BACK_PANEL)
+    return g.switch(p["backrest_solid"], open_back, panel)
 
 
 # -- armrests -------------------------------------------------------------------------------
 
 class _Arm:
-    """The right armrest's attachment points: on the frame, and over/on the seat."""
+    """The right armrest's attachment points: on the frame at `armrest_back_height` (of
+    its part above the seat), and over/on the seat at `armrest_edge` along its side."""
 
     def __init__(self, c: _Chair):
         g, p = c.g, c.p
@@ -299,47 +310,46 @@ class _Arm:
                                  factor=c.above_seat(p["armrest_back_height"]))["Position"]
         # between the back corner (edge 0) and the mirrored front corner (edge 1): the
         # segment lies inside the (convex, symmetric) seat for every roundness
-        corner_y = g.sub(c.corner_y, g.mul(p["frame_depth"], 0.5))
-        self.front_y = g.lerp(corner_y, g.mul(corner_y, -1.0), p["armrest_edge"])
-        self.seat_point = g.combine(self.x, self.front_y, c.inside)
+        corner_y = c.corner_y - p["frame_depth"] * 0.5
+        self.front_y = g.lerp(corner_y, -corner_y, p["armrest_edge"])
+        self.seat_point = g.vec(self.x, self.front_y, c.inside)
 
 
 def _straight_arm(c: _Chair, arm: _Arm):
+    """A bar from the frame forward, its front end at `armrest_front_height` x the back
+    end's height above the seat; a support down into the seat; a pad on top."""
     g, p = c.g, c.p
-    rise = g.sub(g.separate(arm.back)["Z"], p["seat_height"])
-    front = g.combine(arm.x, arm.front_y,
-                      g.add(p["seat_height"], g.mul(rise, p["armrest_front_height"])))
+    rise = arm.back.z - p["seat_height"]
+    front = g.vec(arm.x, arm.front_y, p["seat_height"] + rise * p["armrest_front_height"])
     bar = straight_frame(g, start=arm.back, end=front, width=p["armrest_width"],
                          depth=p["armrest_height"], roundness=p["armrest_roundness"],
                          part=ARMRESTS)["Mesh"]
     support = frame_fixed_bottom(g, bottom=arm.seat_point, top=front, curvature=1.0,
-                                 width=g.mul(p["armrest_width"], 0.6),
-                                 depth=g.mul(p["armrest_width"], 0.6),
+                                 width=p["armrest_width"] * 0.6,
+                                 depth=p["armrest_width"] * 0.6,
                                  roundness=p["armrest_roundness"], part=ARM_SUPPORTS)["Mesh"]
-    lift = g.combine(0.0, 0.0, g.mul(g.add(p["armrest_height"], p["armrest_pad_thickness"]),
-                                     0.5 - PAD_SINK))
-    pad = straight_frame(g, start=g.vmath("ADD", arm.back, lift),
-                         end=g.vmath("ADD", front, lift),
-                         width=g.mul(p["armrest_width"], 1.2),
+    lift = g.vec(0.0, 0.0,
+                 (p["armrest_height"] + p["armrest_pad_thickness"]) * (0.5 - PAD_SINK))
+    pad = straight_frame(g, start=arm.back + lift, end=front + lift,
+                         width=p["armrest_width"] * 1.2,
                          depth=p["armrest_pad_thickness"], roundness=1.0,
                          part=ARM_PADS)["Mesh"]
-    return g.join([bar, g.switch(p["armrest_support"], None, support, data_type="GEOMETRY"),
-                   g.switch(p["armrest_cushion"], None, pad, data_type="GEOMETRY")])
+    return g.join([bar, g.switch(p["armrest_support"], None, support),
+                   g.switch(p["armrest_cushion"], None, pad)])
 
 
 def _loop_arm(c: _Chair, arm: _Arm):
-    """A curve from the frame forward and down into the seat. QuadraticPolar bends in the
-    XZ plane, so the arm is built turned by -90 degrees about Z and turned back."""
+    """A curve from the frame forward and down into the seat, bulging by a third of its
+    chord at angle `armrest_mid`. QuadraticPolar bends in the XZ plane, so the arm is built
+    turned by -90 degrees about Z and turned back."""
     g, p = c.g, c.p
 
     def to_local(point):  # world (x, y, z) -> local (y, -x, z)
-        xyz = g.separate(point)
-        return g.combine(xyz["Y"], g.mul(xyz["X"], -1.0), xyz["Z"])
+        return g.vec(point.y, -point.x, point.z)
 
     start, end = to_local(arm.back), to_local(arm.seat_point)
-    chord = g.vmath("DISTANCE", start, end)
     loop = quadratic_polar_frame(g, start=start, end=end, angle=p["armrest_mid"],
-                                 distance=g.mul(chord, ARM_LOOP_BULGE),
+                                 distance=g.distance(start, end) * ARM_LOOP_BULGE,
                                  width=p["armrest_width"], depth=p["armrest_height"],
                                  roundness=p["armrest_roundness"], axis=(0.0, -1.0, 0.0),
                                  part=ARMRESTS)["Mesh"]
@@ -347,23 +357,35 @@ def _loop_arm(c: _Chair, arm: _Arm):
 
 
 def _armrests(c: _Chair):
+    """By `armrest_style`: none, straight or loop."""
     arm = _Arm(c)
     return c.g.index_switch(c.p["armrest_style"], [None, _straight_arm(c, arm),
-                                                   _loop_arm(c, arm)], data_type="GEOMETRY")
+                                                   _loop_arm(c, arm)])
 
 
 # -- assembly -------------------------------------------------------------------------------
 
 def build(g: Graph) -> None:
-    p = _parameters(g)
-    c = _Chair(g, p)
-    legs = g.switch(p["monoleg"], _four_legs(c), None, data_type="GEOMETRY")
-    right = g.join([legs, c.frame, _armrests(c)])
-    chair = g.join([c.seat["Mesh"], _cushion(c), mirror(g, geometry=right, axis=0)["Geometry"],
-                    g.switch(p["monoleg"], None, _monoleg(c), data_type="GEOMETRY"),
-                    _backrest(c)])
-    scaled = g.transform(chair, scale=g.combine(p["scale_x"], p["scale_y"], p["scale_z"]))
-    # ground it: whatever the parts, the lowest point rests on z = 0
-    lowest = g.separate(g.node("GeometryNodeBoundBox", {"Geometry": scaled})["Min"])["Z"]
-    g.output("Geometry", "geometry",
-             g.transform(scaled, translation=g.combine(0.0, 0.0, g.mul(lowest, -1.0))))
+    with g.frame("Parameters"):
+        p = _parameters(g)
+    with g.part("Seat"):
+        c = _Chair(g, p)
+    with g.part("Back Frame"):
+        c.build_frame()
+    with g.part("Cushion"):
+        pillow = _cushion(c)
+    with g.part("Legs"):
+        legs = _four_legs(c)
+    with g.part("Monoleg"):
+        monoleg = _monoleg(c)
+    with g.part("Backrest"):
+        backrest = _backrest(c)
+    with g.part("Armrests"):
+        armrests = _armrests(c)
+    with g.frame("Assembly"):
+        # the right side is mirrored in x; the chair is scaled per axis and then rests on z = 0
+        right = g.join([legs, c.frame, armrests])
+        chair = g.join([c.seat["Mesh"], pillow, mirror(g, geometry=right, axis=0)["Geometry"],
+                        monoleg, backrest])
+        scaled = g.transform(chair, scale=g.vec(p["scale_x"], p["scale_y"], p["scale_z"]))
+        g.output("Geometry", "geometry", g.ground(scaled))

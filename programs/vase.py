@@ -10,7 +10,8 @@ Structure (every part touches the rest for every parameter combination):
 - lid and knob on the lip, a rim around the lip, a band around the body;
 - foot: none, a pedestal, or radially placed legs; the whole vase is then grounded so that
   its lowest point lies on z = 0.
-Part labels: body 1, rim 2, band 3, handle 4, lid 5, knob 6, foot 7.
+Part labels: body 1, rim 2, band 3, handle 4, lid 5, knob 6, foot 7. In Blender's node
+editor each part is a node group: Body, Lip Rim, Band, Handles, Lid, Pedestal, Legs.
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ from __future__ import annotations
 from geocode.nodes import (
     Graph,
     handle,
-    leg,
+    leg_style,
     middle_expand_contract,
     node_group,
     quadratic_cartesian,
@@ -57,12 +58,12 @@ def vase_radius(g: Graph) -> None:
     radius = knots[0][1]
     for (t0, w0), (t1, w1) in zip(knots, knots[1:], strict=False):
         step = g.map_range(factor, t0, t1, 0.0, 1.0, interpolation="SMOOTHSTEP")
-        radius = g.add(radius, g.mul(g.sub(w1, w0), step))
+        radius = radius + (w1 - w0) * step
     g.output("Radius", "float", radius)
 
 
 class _Body:
-    """The body's shared quantities, so that every attached part follows edits."""
+    """Quantities of the body that its parts are placed from, so that they follow edits."""
 
     def __init__(self, g: Graph, p: dict):
         self.g, self.p = g, p
@@ -83,19 +84,16 @@ class _Body:
     def corner_reach(self):
         """Distance from the axis to the cross-section's corner, per unit half-width:
         sqrt(2) for a square, 1 for a circle (corner arc of radius `roundness`)."""
-        g = self.g
-        return g.add(g.mul(g.sub(1.0, self.p["roundness"]), 2 ** 0.5), self.p["roundness"])
+        roundness = self.p["roundness"]
+        return (1.0 - roundness) * 2 ** 0.5 + roundness
 
     def twist_at(self, factor):
-        return self.g.mul(self.p["twist"], factor)
+        return self.p["twist"] * factor
 
     def path(self, bottom, top, points):
         """Vertical path from z=bottom to z=top, its profile's +X pinned to world +X."""
         g = self.g
-        line = g.node("GeometryNodeCurvePrimitiveLine", {
-            "Start": g.combine(0.0, 0.0, bottom), "End": g.combine(0.0, 0.0, top)})
-        path = g.node("GeometryNodeResampleCurve", {"Curve": line, "Mode": "Count",
-                                                    "Count": points}).out
+        path = g.line(g.vec(0.0, 0.0, bottom), g.vec(0.0, 0.0, top), count=points)
         return align_curve_tilt_to_axis(g, curve=path, axis=(1.0, 0.0, 0.0))["Curve"]
 
     def loop_at(self, factor):
@@ -103,9 +101,9 @@ class _Body:
         g = self.g
         scale = self.radius(factor)
         return g.transform(self.profile(),
-                           translation=g.combine(0.0, 0.0, g.mul(factor, self.height)),
-                           rotation=g.combine(0.0, 0.0, self.twist_at(factor)),
-                           scale=g.combine(scale, scale, 1.0))
+                           translation=g.vec(0.0, 0.0, factor * self.height),
+                           rotation=g.vec(0.0, 0.0, self.twist_at(factor)),
+                           scale=g.vec(scale, scale, 1.0))
 
 
 def _parameters(g: Graph) -> dict:
@@ -158,20 +156,16 @@ def _parameters(g: Graph) -> dict:
 
 
 def _body_mesh(body: _Body):
-    """Swept outer surface without its top cap, given a wall by Solidify."""
+    """The body: the profile swept up the height `body_height`, scaled by the radius curve
+    and twisted by `twist` x height; its top cap removed and the open surface given a wall
+    of `wall_thickness` inwards."""
     g, p = body.g, body.p
-    path = body.path(0.0, body.height, BODY_RINGS)
-    path = g.node("GeometryNodeSetCurveTilt", {
-        "Curve": path, "Tilt": body.twist_at(g.spline_factor())}).out
+    path = g.set_tilt(body.path(0.0, body.height, BODY_RINGS),
+                      body.twist_at(g.spline_factor()))
     outer = sweep(g, curve=path, profile_curve=body.profile(),
                   scale=body.radius(g.spline_factor()), fill_caps=True, part=BODY)["Mesh"]
-    top_z = g.separate(g.position())["Z"]
-    normal_z = g.separate(g.node("GeometryNodeInputNormal")["Normal"])["Z"]
-    is_top_cap = g.boolean("AND", g.compare("GREATER_THAN", top_z, g.sub(body.height, 1e-4)),
-                           g.compare("GREATER_THAN", normal_z, 0.9))
-    open_top = g.node("GeometryNodeDeleteGeometry", {"Geometry": outer,
-                                                     "Selection": is_top_cap},
-                      domain="FACE", mode="ONLY_FACE").out
+    is_top_cap = (g.position().z > body.height - 1e-4) & (g.normal().z > 0.9)
+    open_top = g.delete_faces(outer, is_top_cap)
     return solidify(g, mesh=open_top, thickness=p["wall_thickness"])["Mesh"]
 
 
@@ -181,8 +175,8 @@ def _silhouette(body: _Body):
     the body at every azimuth and twist."""
     g = body.g
     path = body.path(0.0, body.height, BODY_RINGS)
-    offset = g.combine(g.mul(body.radius(g.spline_factor()), body.corner_reach()), 0.0, 0.0)
-    return g.node("GeometryNodeSetPosition", {"Geometry": path, "Offset": offset}).out
+    reach = body.radius(g.spline_factor()) * body.corner_reach()
+    return g.set_position(path, offset=g.vec(reach, 0.0, 0.0))
 
 
 def _tube_profile(g: Graph, roundness=1.0):
@@ -191,95 +185,111 @@ def _tube_profile(g: Graph, roundness=1.0):
 
 
 def _handles(body: _Body):
+    """`handle_count` handles (radial copies, none at 0), each a CurveHandle on the
+    silhouette from `handle_bottom` to `handle_top` (fractions of the outline) bulging out
+    by `handle_reach`; its ends sunk into the wall by `inset` (below)."""
     g, p = body.g, body.p
     silhouette = _silhouette(body)
     # The ends sit on the outermost outline; sink them to the inner face of the wall at its
     # nearest azimuth (the flat side): corner excess + half the wall, for the wider end.
-    ends_x = [g.separate(sample_curve(g, curve=silhouette, factor=p[f])["Position"])["X"]
+    ends_x = [sample_curve(g, curve=silhouette, factor=p[f])["Position"].x
               for f in ("handle_bottom", "handle_top")]
-    excess = g.sub(1.0, g.div(1.0, body.corner_reach()))
-    inset = g.add(g.mul(g.maximum(*ends_x), excess), g.mul(p["wall_thickness"], 0.5))
+    excess = 1.0 - 1.0 / body.corner_reach()
+    inset = g.max(*ends_x) * excess + p["wall_thickness"] * 0.5
     curve = handle(g, curve=silhouette, start=p["handle_bottom"], end=p["handle_top"],
                    reach=p["handle_reach"], peak=p["handle_peak"], inset=inset,
                    resolution=20)["Curve"]
     one = rail(g, curve=curve, profile_curve=_tube_profile(g, p["handle_roundness"]),
                radius=p["handle_thickness"], fill_caps=True, part=HANDLE)["Mesh"]
     copies = radial(g, geometry=one, count=p["handle_count"], radius=0.0)["Geometry"]
-    has_handles = g.compare("GREATER_THAN", p["handle_count"], 0, data_type="INT")
-    return g.switch(has_handles, None, copies, data_type="GEOMETRY")
+    return g.switch(p["handle_count"] > 0, None, copies)
 
 
-def _ring(body: _Body, factor, size, part):
-    """A tube of radius `size` around the body's outline at `factor` of its height."""
+def _ring(body: _Body, shown, factor, size, part):
+    """When `shown`: a tube of radius `size` around the body's outline at `factor` of its
+    height."""
     g = body.g
-    return rail(g, curve=body.loop_at(factor), profile_curve=_tube_profile(g), radius=size,
+    ring = rail(g, curve=body.loop_at(factor), profile_curve=_tube_profile(g), radius=size,
                 fill_caps=False, part=part)["Mesh"]
+    return g.switch(shown, None, ring)
 
 
 def _lid(body: _Body):
+    """When `lid`: a lid from just below the lip (`OVERLAP`) up by `lid_thickness`, then a
+    quarter-ellipse dome of height `lid_dome` narrowing to 30% of the lid's width
+    (`lip_width` x `LIP_OVERHANG`); when `knob` too, a knob of height `knob_height` on top."""
     g, p = body.g, body.p
-    bottom = g.sub(body.height, OVERLAP)
-    flat_top = g.add(body.height, p["lid_thickness"])
-    top = g.add(flat_top, p["lid_dome"])
-    path = body.path(bottom, top, 10)
-    path = g.node("GeometryNodeSetCurveTilt", {"Curve": path, "Tilt": p["twist"]}).out
-    # the dome: a quarter ellipse from the full lid width down to 30% of it
-    height = g.separate(g.position())["Z"]
-    u = g.map_range(height, flat_top, g.add(flat_top, g.maximum(p["lid_dome"], 1e-4)), 0, 1)
-    dome = g.add(0.3, g.mul(0.7, g.math("SQRT", g.sub(1.0, g.mul(u, u)))))
-    scale = g.mul(g.mul(p["lip_width"], LIP_OVERHANG), dome)
+    bottom = body.height - OVERLAP
+    flat_top = body.height + p["lid_thickness"]
+    top = flat_top + p["lid_dome"]
+    path = g.set_tilt(body.path(bottom, top, 10), p["twist"])
+    u = g.map_range(g.position().z, flat_top, flat_top + g.max(p["lid_dome"], 1e-4), 0, 1)
+    dome = 0.3 + 0.7 * g.sqrt(1.0 - u * u)
+    scale = p["lip_width"] * LIP_OVERHANG * dome
     lid = sweep(g, curve=path, profile_curve=body.profile(), scale=scale, fill_caps=True,
                 part=LID)["Mesh"]
-    knob_path = body.path(g.sub(top, OVERLAP), g.add(top, p["knob_height"]), 8)
+    knob_path = body.path(top - OVERLAP, top + p["knob_height"], 8)
     knob = middle_expand_contract(
         g, curve=knob_path, profile_curve=_tube_profile(g, p["knob_roundness"]),
         radius=p["knob_size"], amount=0.6, fill_caps=True, part=KNOB)["Mesh"]
-    with_knob = g.join([lid, g.switch(p["knob"], None, knob, data_type="GEOMETRY")])
-    return g.switch(p["lid"], None, with_knob, data_type="GEOMETRY")
+    with_knob = g.join([lid, g.switch(p["knob"], None, knob)])
+    return g.switch(p["lid"], None, with_knob)
 
 
 def _pedestal(body: _Body):
+    """A pedestal of height `foot_height` (+ `OVERLAP` into the body) whose width goes from
+    `base_width` x `foot_width` at the floor to 0.8 `base_width` at the top, pinched by
+    20% in the middle (1 - 0.2 sin(pi t))."""
     g, p = body.g, body.p
-    path = body.path(0.0, g.add(p["foot_height"], OVERLAP), 8)
+    path = body.path(0.0, p["foot_height"] + OVERLAP, 8)
     t = g.spline_factor()
-    width = g.lerp(g.mul(p["base_width"], p["foot_width"]), g.mul(p["base_width"], 0.8), t)
-    waist = g.sub(1.0, g.mul(0.2, g.math("SINE", g.mul(t, 3.14159265))))
-    return sweep(g, curve=path, profile_curve=body.profile(), scale=g.mul(width, waist),
+    width = g.lerp(p["base_width"] * p["foot_width"], p["base_width"] * 0.8, t)
+    waist = 1.0 - 0.2 * g.sin(t * 3.14159265)
+    return sweep(g, curve=path, profile_curve=body.profile(), scale=width * waist,
                  fill_caps=True, part=FOOT)["Mesh"]
 
 
 def _legs(body: _Body):
+    """`leg_count` legs (radial copies from 45 degrees), each a quadratic curve from
+    (0.6 `base_width`, 0, `foot_height` + `OVERLAP`) down to the floor, its foot spread
+    outwards by `leg_splay` and its middle bowed out by 0.3 `leg_splay`; tapering to 0.7 of
+    `leg_thickness` at the foot."""
     g, p = body.g, body.p
-    x = g.mul(p["base_width"], 0.6)
-    start = g.combine(x, 0.0, g.add(p["foot_height"], OVERLAP))
-    end = g.combine(g.add(x, p["leg_splay"]), 0.0, 0.0)
+    x = p["base_width"] * 0.6
+    start = g.vec(x, 0.0, p["foot_height"] + OVERLAP)
+    end = g.vec(x + p["leg_splay"], 0.0, 0.0)
     curve = quadratic_cartesian(g, start=start, end=end,
-                                offset=g.combine(g.mul(p["leg_splay"], 0.3), 0.0, 0.0),
+                                offset=g.vec(p["leg_splay"] * 0.3, 0.0, 0.0),
                                 resolution=8)["Curve"]
-    one = leg(g, curve=curve, profile_curve=_tube_profile(g), top_radius=p["leg_thickness"],
-              bottom_radius=g.mul(p["leg_thickness"], 0.7), fill_caps=True, part=FOOT)["Mesh"]
+    one = leg_style(g, curve=curve, profile_curve=_tube_profile(g),
+                    top_radius=p["leg_thickness"], bottom_radius=p["leg_thickness"] * 0.7,
+                    fill_caps=True, part=FOOT)["Mesh"]
     return radial(g, geometry=one, count=p["leg_count"], radius=0.0,
                   start_angle=0.785398)["Geometry"]
 
 
 def build(g: Graph) -> None:
-    p = _parameters(g)
+    with g.frame("Parameters"):
+        p = _parameters(g)
     body = _Body(g, p)
-    upper = g.join([
-        _body_mesh(body),
-        g.switch(p["lip_rim"], None, _ring(body, 1.0, p["lip_rim_size"], RIM),
-                 data_type="GEOMETRY"),
-        g.switch(p["band"], None, _ring(body, p["band_height"], p["band_size"], BAND),
-                 data_type="GEOMETRY"),
-        _handles(body),
-        _lid(body),
-    ])
-    lift = g.index_switch(p["foot_style"], [0.0, p["foot_height"], p["foot_height"]],
-                          data_type="FLOAT")
-    foot = g.index_switch(p["foot_style"], [None, _pedestal(body), _legs(body)],
-                          data_type="GEOMETRY")
-    vase = g.join([g.transform(upper, translation=g.combine(0.0, 0.0, lift)), foot])
-    # ground it: whatever the parts, the lowest point rests on z = 0
-    lowest = g.separate(g.node("GeometryNodeBoundBox", {"Geometry": vase})["Min"])["Z"]
-    grounded = g.transform(vase, translation=g.combine(0.0, 0.0, g.mul(lowest, -1.0)))
-    g.output("Geometry", "geometry", grounded)
+    with g.part("Body"):
+        wall = _body_mesh(body)
+    with g.part("Lip Rim"):
+        rim = _ring(body, p["lip_rim"], 1.0, p["lip_rim_size"], RIM)
+    with g.part("Band"):
+        band = _ring(body, p["band"], p["band_height"], p["band_size"], BAND)
+    with g.part("Handles"):
+        handles = _handles(body)
+    with g.part("Lid"):
+        lid = _lid(body)
+    with g.part("Pedestal"):
+        pedestal = _pedestal(body)
+    with g.part("Legs"):
+        legs = _legs(body)
+    with g.frame("Assembly"):
+        # the foot lifts the rest by its height; the lowest point then rests on z = 0
+        upper = g.join([wall, rim, band, handles, lid])
+        lift = g.index_switch(p["foot_style"], [0.0, p["foot_height"], p["foot_height"]])
+        foot = g.index_switch(p["foot_style"], [None, pedestal, legs])
+        vase = g.join([g.transform(upper, translation=g.vec(0.0, 0.0, lift)), foot])
+        g.output("Geometry", "geometry", g.ground(vase))

@@ -116,10 +116,9 @@ def test_arc_lies_on_its_circle(blender):
 def _body_outline(g):
     """A bulging outline in the XZ plane: x = 0.5 + 0.3 sin(pi z / 2), z in [0, 2]."""
     path = _vertical_line(g, 2.0, 33)
-    z = g.separate(g.position())["Z"]
-    x = g.add(0.5, g.mul(0.3, g.math("SINE", g.mul(z, math.pi / 2))))
+    x = 0.5 + 0.3 * g.sin(g.position().z * math.pi / 2)
     return g.node("GeometryNodeSetPosition", {"Geometry": path,
-                                              "Offset": g.combine(x, 0, 0)}).out
+                                              "Offset": g.vec(x, 0, 0)}).out
 
 
 def test_handle_attaches_on_the_curve_and_clears_it(blender):
@@ -178,7 +177,7 @@ def test_rail_has_constant_radius_and_labels_its_part(blender):
 
 
 def test_leg_eases_from_top_to_bottom_radius(blender):
-    mesh = _evaluate(lambda g: nodes.leg(g, curve=_vertical_line(g), profile_curve=_round_profile(g),
+    mesh = _evaluate(lambda g: nodes.leg_style(g, curve=_vertical_line(g), profile_curve=_round_profile(g),
                                          top_radius=0.2, bottom_radius=0.1)["Mesh"])
     bottom, middle, top = _radii_by_height(mesh)  # path runs up: its start is at z = 0
     assert bottom == pytest.approx(0.2, rel=3e-3) and top == pytest.approx(0.1, rel=3e-3)

@@ -39,12 +39,24 @@ def test_config_prints_the_composed_profile(capsys):
     ("data.shards=0", "data.shards=0: out of range; give a whole number >= 1"),
     ("profile=huge", "profile"),
     ("data.nonsense=1", "nonsense"),
+    ("domain=tabel", "domain=tabel: no such domain; use one of chair, vase"),
 ])
 def test_bad_overrides_give_one_line(override, words):
     result = geocode("config", override)
     assert result.returncode == 2
     assert words in result.stderr
     assert "Traceback" not in result.stderr and len(result.stderr.strip().splitlines()) == 1
+
+
+def test_domain_group_comes_from_the_registry(tmp_path, monkeypatch):
+    """A program and its recipe make a domain; nothing in conf/ is needed."""
+    for name in ("vase", "stool"):
+        (tmp_path / f"{name}.py").write_text("")
+        (tmp_path / f"{name}.yaml").write_text("parameters: {}\n")
+    monkeypatch.setenv("GEOCODE_PROGRAMS", str(tmp_path))
+    result = geocode("config", "domain=stool")
+    assert result.returncode == 0, result.stderr
+    assert "domain:\n  name: stool\n" in result.stdout
 
 
 def test_shape_rejects_unknown_names_and_out_of_range_values(tmp_path):

@@ -23,6 +23,7 @@ import pytest
 import torch
 
 from geocode.cli import main
+from geocode.config import PROGRAMS_ENV, repo_root
 from geocode.errors import UserError
 
 LOG_LINE = re.compile(r"\d\d:\d\d:\d\d ")  # progress lines of the logging module, not errors
@@ -34,6 +35,7 @@ class Case:
     words: list[str]             # the one line must hold each of these
     absent: list[str] = field(default_factory=list)   # paths (under tmp) that must not exist after
     setup: str = ""              # the name of a function below that prepares tmp
+    programs: str = ""           # a programs folder under tmp ($GEOCODE_PROGRAMS)
     code: int = 2
 
 
@@ -162,10 +164,10 @@ STEP_CASES = {
     "train with a foreign class": Case(["train", "--out", "{tmp}/run", *DATA, "model._target_=builtins.print"],
                                        ["_target_=builtins.print"], absent=["run"]),
     "train on a GPU that is not there": Case(
-        ["train", "--out", "{tmp}/run", "paths.data={tmp}/data", "paths.build={tmp}/build", "domain.name=toy",
-         "domain.recipe={tmp}/programs/toy.yaml", "profile=smoke", "data.points.train_random=32",
-         "train.accelerator=cuda", "train.devices=1"],
-        ["train.accelerator=cuda", "choose what this machine has"], setup="toy_dataset", absent=["run"]),
+        ["train", "--out", "{tmp}/run", "paths.data={tmp}/data", "paths.build={tmp}/build", "domain=toy", "domains=[toy]",
+         "profile=smoke", "data.points.train_random=32", "train.accelerator=cuda", "train.devices=1"],
+        ["train.accelerator=cuda", "choose what this machine has"], setup="toy_dataset", programs="programs",
+        absent=["run"]),
     "predict without checkpoint": Case(["predict", "--checkpoint", "{tmp}/none.ckpt", "-o", "{tmp}/p.parquet", *DATA],
                                        ["none.ckpt", "not found"], absent=["p.parquet"]),
     "predict zero-byte checkpoint": Case(["predict", "--checkpoint", "{tmp}/zero.ckpt", "-o", "{tmp}/p.parquet", *DATA],
@@ -208,7 +210,7 @@ RECIPE_CASES = {
     "recipe complex key": (b"parameters:\n  ? [a, b]\n  : 1\n", ["is not a name"]),
     "recipe YAML syntax": (b"parameters: {body_height: [1, 2\n", ["not valid YAML"]),
     "recipe duplicate key": (b"parameters: {}\nparameters: {}\n", ["given twice"]),
-    "recipe not a mapping": (b"- 1\n- 2\n", ["recipe.yaml"]),
+    "recipe not a mapping": (b"- 1\n- 2\n", ["vase.yaml"]),
 }
 
 
@@ -260,10 +262,12 @@ def test_command_line_mistakes(name, tmp, capsys):
 
 
 @pytest.mark.parametrize("name", sorted(STEP_CASES))
-def test_step_mistakes(name, tmp, build, capsys):
+def test_step_mistakes(name, tmp, build, capsys, monkeypatch):
     case = STEP_CASES[name]
     if case.setup:
         SETUPS[case.setup](tmp, build)
+    if case.programs:
+        monkeypatch.setenv(PROGRAMS_ENV, str(tmp / case.programs))
     code, err = cli(case.args, tmp, build, capsys)
     assert_one_line(code, err, case.code, case.words)
     left = [p for p in case.absent if (tmp / p).exists()]
@@ -272,11 +276,14 @@ def test_step_mistakes(name, tmp, build, capsys):
 
 
 @pytest.mark.parametrize("name", sorted(RECIPE_CASES))
-def test_recipe_file_mistakes(name, tmp, build, capsys):
+def test_recipe_file_mistakes(name, tmp, build, capsys, monkeypatch):
     text, words = RECIPE_CASES[name]
-    recipe = tmp / "recipe.yaml"
+    (tmp / "programs").mkdir()
+    (tmp / "programs" / "vase.py").symlink_to(repo_root() / "programs" / "vase.py")
+    recipe = tmp / "programs" / "vase.yaml"
     recipe.write_bytes(text)
-    code, err = cli([*RECIPE, f"domain.recipe={recipe}"], tmp, build, capsys)
+    monkeypatch.setenv(PROGRAMS_ENV, str(tmp / "programs"))
+    code, err = cli(RECIPE, tmp, build, capsys)
     assert_one_line(code, err, 2, [str(recipe), *words])
     assert not (tmp / "data").exists()
 
@@ -505,7 +512,8 @@ def other_heads(tmp: Path, build: Path) -> None:
 def toy_dataset(tmp: Path, build: Path) -> None:
     from test_training_data import make_dataset
 
-    make_dataset(tmp)
+    _, _, recipe = make_dataset(tmp)
+    recipe.with_suffix(".py").write_text("")  # registers the domain; training never runs it
 
 
 SETUPS = {f.__name__: f for f in (nan_mesh, empty_mesh, broken_manifest, bad_files, other_grid, other_heads,

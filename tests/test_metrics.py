@@ -1,4 +1,4 @@
-"""Chamfer distance (SPEC §5) against a brute-force reference."""
+"""Chamfer distance (docs/paper-numbers.md#evaluation) against a brute-force reference."""
 
 import numpy as np
 import pytest

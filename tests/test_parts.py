@@ -14,9 +14,9 @@ pytestmark = pytest.mark.blender
 
 PART = 7
 BLOCKS = [curves.fixed_top, curves.fixed_bottom, curves.fixed_middle, styles.seat_frame,
-          styles.cushion, styles.aligned_bevel_xy, styles.bezier_segment_style,
-          parts.seat, parts.cushion, parts.top_rail, parts.cross_rail, parts.straight_frame,
-          parts.frame_fixed_bottom, parts.leg, parts.quadratic_polar_frame,
+          styles.cushion_style, styles.aligned_bevel_xy, styles.bezier_segment_style,
+          parts.seat, parts.cushion_mesh, parts.top_rail, parts.cross_rail, parts.straight_frame,
+          parts.frame_fixed_bottom, parts.leg_mesh, parts.quadratic_polar_frame,
           parts.quadratic_cartesian_aligned_xy_frame, parts.quadratic_cartesian_mesh]
 
 
@@ -117,7 +117,7 @@ def test_seat_frame_rounds_both_ends_by_the_bevel(blender):
 
 def test_cushion_style_puffs_more_when_fuller(blender):
     def widths(fill):
-        mesh = _mesh(lambda g: styles.cushion(g, curve=_vertical_path(g),
+        mesh = _mesh(lambda g: styles.cushion_style(g, curve=_vertical_path(g),
                                               profile_curve=_square(g), fill=fill, part=PART))
         return [_half_width_at(mesh, z) for z in (0.0, 0.75, 1.0)]
 
@@ -168,7 +168,7 @@ def test_seat_corner_moves_inwards_with_roundness(blender):
 
 
 def test_cushion_mesh_sits_on_its_bottom(blender):
-    mesh = _mesh(lambda g: parts.cushion(g, width=0.5, depth=0.4, roundness=0.3, bottom=0.4,
+    mesh = _mesh(lambda g: parts.cushion_mesh(g, width=0.5, depth=0.4, roundness=0.3, bottom=0.4,
                                          thickness=0.06, fill=0.5, part=PART))
     assert mesh.bounds[:, 2] == pytest.approx([0.4, 0.46], abs=1e-5)
     assert mesh.bounds[1, :2] == pytest.approx([0.25, 0.2], abs=1e-4)
@@ -176,7 +176,7 @@ def test_cushion_mesh_sits_on_its_bottom(blender):
 
 
 def test_leg_reaches_from_top_to_bottom_and_tapers(blender):
-    mesh = _mesh(lambda g: parts.leg(g, top=(0.2, 0.2, 0.5), bottom=(0.25, 0.25, 0.0),
+    mesh = _mesh(lambda g: parts.leg_mesh(g, top=(0.2, 0.2, 0.5), bottom=(0.25, 0.25, 0.0),
                                      curvature=1.0, top_radius=0.03, bottom_radius=0.015,
                                      part=PART))
     z = mesh.vertices[:, 2]

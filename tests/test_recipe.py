@@ -160,7 +160,8 @@ BAD = [
         "outside the program",
     ),
     ("parameters:\n  legs: {min: 0, max: 9}\n", "parameters.legs.max", "outside the program"),
-    ("parameters:\n  legs: {min: 0}\n", "parameters.legs.max", "missing"),
+    ("parameters:\n  legs: {min: 7}\n", "parameters.legs.min", "outside the program"),
+    ("parameters:\n  height:\n", "parameters.height.samples", "missing for a float"),
     ("parameters:\n  legs: {min: 0, max: 2.5}\n", "parameters.legs.max", "whole number"),
     (
         "parameters:\n  legs: {min: 0, max: 3, samples: 4}\n",
@@ -232,6 +233,26 @@ def test_recipe_may_repeat_program_range_with_rounding(tmp_path):
     assert Recipe.load(path, PARAMETERS, VISIBILITY)["height"].min == 0.5
 
 
+def test_ranges_come_from_the_program(tmp_path):
+    """A recipe entry without min/max takes the program's range; min alone narrows one end."""
+    text = "parameters:\n  height: {samples: 4}\n  legs: {min: 2}\n  has_handle:\n"
+    recipe = Recipe.load(write(tmp_path, text), PARAMETERS, VISIBILITY)
+    assert np.allclose(recipe["height"].classes, [0.5, 1.0, 1.5, 2.0])
+    assert list(recipe["legs"].classes) == [2, 3, 4, 5, 6]
+    assert list(recipe["has_handle"].classes) == [0, 1]
+
+
+def test_wider_range_says_how_to_fix_it(tmp_path):
+    path = write(tmp_path, "parameters:\n  height: {max: 3.0, samples: 4}\n")
+    with pytest.raises(RecipeError) as info:
+        Recipe.load(path, PARAMETERS, VISIBILITY)
+    assert str(info.value) == (
+        f"{path}: parameters.height.max: 3 is outside the program's range [0.5, 2]; a recipe may "
+        "narrow the range, never widen it: give a max inside it, or leave max out to take the "
+        "program's (widen the range in the program itself)"
+    )
+
+
 def manifest(parameters, visibility):
     return {
         "domain": "vase",
@@ -263,7 +284,8 @@ def test_load_manifest(tmp_path):
     [
         (lambda m: m["parameters"][0].update(kind="vector"), "parameters.height.kind"),
         (lambda m: m["parameters"][0].update(default=5.0), "parameters.height"),
-        (lambda m: m["parameters"][1].pop("max"), "parameters[1].max"),
+        (lambda m: m["parameters"][1].pop("max"), "parameters.width.max"),
+        (lambda m: m["parameters"][1].pop("name"), "parameters[1].name"),
         (
             lambda m: m["parameters"][3].update(visible_if="has_handel"),
             "parameters.handle_size.visible_if",

@@ -8,7 +8,7 @@ import pytest
 import torch
 from test_training_data import CAMERAS, DOMAIN, N_FPS, N_PICK, make_dataset
 
-from geocode.config import compose
+from geocode.config import PROGRAMS_ENV, compose
 from geocode.train import CheckpointError, load_model, predict, predict_classes, train
 
 
@@ -17,13 +17,16 @@ def run(tmp_path_factory):
     """A one-epoch run of the joint model; returns (cfg, result)."""
     root = tmp_path_factory.mktemp("train")
     data, build, recipe_path = make_dataset(root)
-    cfg = compose([
-        "profile=smoke", f"paths.data={data}", f"paths.build={build}", f"paths.runs={root / 'runs'}",
-        f"domain.name={DOMAIN}", f"domain.recipe={recipe_path}", f"data.points.train_random={N_PICK}",
-        "train.max_epochs=1", "train.batch_size=4", "train.accelerator=cpu", "train.devices=1",
-    ])
-    assert [c.name for c in cfg.data.sketch.cameras if c.train] == CAMERAS
-    return cfg, train(cfg)
+    recipe_path.with_suffix(".py").write_text("")  # registers the domain; training never runs it
+    with pytest.MonkeyPatch.context() as env:
+        env.setenv(PROGRAMS_ENV, str(recipe_path.parent))
+        cfg = compose([
+            "profile=smoke", f"paths.data={data}", f"paths.build={build}", f"paths.runs={root / 'runs'}",
+            f"domain={DOMAIN}", f"data.points.train_random={N_PICK}",
+            "train.max_epochs=1", "train.batch_size=4", "train.accelerator=cpu", "train.devices=1",
+        ])
+        assert [c.name for c in cfg.data.sketch.cameras if c.train] == CAMERAS
+        yield cfg, train(cfg)
 
 
 def test_one_epoch_writes_checkpoints_and_logs(run):

@@ -24,7 +24,7 @@ def main(argv: list[str] | None = None) -> int:
     # Handlers first: a stop signal that arrives while Blender starts up must wait for it.
     with stop_signals_raise():
         try:
-            args = parser().parse_args(argv)
+            args = parse(argv)
             logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s: %(message)s",
                                 datefmt="%H:%M:%S", stream=sys.stderr)
             if args.run in BLENDER:
@@ -56,6 +56,17 @@ class Parser(argparse.ArgumentParser):
 
     def error(self, message):
         raise UserError(self.prog.partition(" ")[2] or "command line", message, f"see {self.prog} --help")
+
+
+def parse(argv: list[str] | None) -> argparse.Namespace:
+    """The command line; a step's `key=value` overrides may also stand after its options."""
+    p = parser()
+    args, extra = p.parse_known_args(argv)
+    if extra and hasattr(args, "overrides") and all("=" in e and not e.startswith("-") for e in extra):
+        args.overrides = [*args.overrides, *extra]
+    elif extra:
+        p.error(f"unrecognized arguments: {' '.join(extra)}")
+    return args
 
 
 def format_result(result) -> str:
@@ -95,9 +106,9 @@ def writable(path: Path, folder: bool) -> Path:
 
 
 def parser() -> argparse.ArgumentParser:
-    from geocode.config import registered_domains
+    from geocode.config import registry
 
-    domains = registered_domains()
+    domains = registry()
     p = Parser(prog="geocode", description=__doc__.splitlines()[0])
     sub = p.add_subparsers(required=True, metavar="command")
 
@@ -129,14 +140,47 @@ def parser() -> argparse.ArgumentParser:
     c.add_argument("--seed", type=at_least(0), default=0)
     c.set_defaults(run=cmd_gallery)
 
+    c = sub.add_parser("reconstruct", help="a mesh, point cloud or drawing -> parameters, mesh, preview, .blend")
+    c.add_argument("domain")
+    c.add_argument("input", type=Path, help="mesh (.obj .ply .stl .glb), cloud (.ply .xyz .npy) or drawing (.png .jpg)")
+    c.add_argument("-o", "--output", required=True, type=Path, help="folder for <input>.yaml|obj|png|blend")
+    c.add_argument("--checkpoint", type=Path, help="default: the domain's joint model of the run (paths.runs)")
+    c.add_argument("--refine", type=int, help="program evaluations of the fit (default eval.fit_budget for clouds and meshes, 0 for drawings)")
+    c.add_argument("--up", choices=["y", "z"], help="the input's up axis (default z; y for glTF)")
+    c.add_argument("--json", action="store_true")
+    c.set_defaults(run=cmd_reconstruct)
+
+    c = sub.add_parser("mix", help="shape a with some parameters taken from shape b")
+    c.add_argument("domain")
+    c.add_argument("a", type=Path, help="YAML of parameter values (e.g. a dataset shape)")
+    c.add_argument("b", type=Path)
+    c.add_argument("--take", required=True, nargs="+", metavar="NAME",
+                   help="parameters to take from b: names, or the first word of a group (handle)")
+    c.add_argument("-o", "--output", required=True, type=Path, help="the OBJ (its YAML beside it)")
+    c.set_defaults(run=cmd_mix)
+
+    c = sub.add_parser("interpolate", help="a sequence of shapes from a to b, and a strip PNG")
+    c.add_argument("domain")
+    c.add_argument("a", type=Path)
+    c.add_argument("b", type=Path)
+    c.add_argument("--steps", type=int, default=6)
+    c.add_argument("-o", "--output", required=True, type=Path, help="folder for step-NN.obj|yaml, strip.png")
+    c.set_defaults(run=cmd_interpolate)
+
+    addon = sub.add_parser("addon", help="the building blocks as a Blender extension").add_subparsers(required=True, metavar="action")
+    c = addon.add_parser("build", help="write the extension zip (install it in Blender from disk)")
+    c.add_argument("-o", "--output", type=Path, default=Path("geocode_nodes.zip"))
+    c.set_defaults(run=cmd_addon_build)
+
     c = sub.add_parser("bench", help="measure a stage's throughput")
-    c.add_argument("stage", choices=["program", "dataset", "train", "epoch", "eval"])
+    c.add_argument("stage", choices=["program", "dataset", "train", "epoch", "eval", "fit"])
     c.add_argument("domain", nargs="?", default="vase", choices=domains)
-    c.add_argument("--n", type=at_least(1), default=200)
+    c.add_argument("--n", type=at_least(1), help="shapes (program: 200, fit: 20 test shapes)")
     c.add_argument("--clouds", type=at_least(1), default=9330, help="epoch: clouds per epoch (paper-scale vase)")
     c.add_argument("--sketches", type=at_least(1), default=18660, help="epoch: sketches per epoch")
     c.add_argument("--device", default="auto", help="epoch: auto (a GPU where there is one), cpu or cuda")
     c.add_argument("--json", action="store_true")
+    c.add_argument("overrides", nargs="*", metavar="key=value", help="fit: the run's config (e.g. profile=smoke)")
     c.set_defaults(run=cmd_bench)
 
     step = "pipeline step; takes Hydra overrides key=value"
@@ -242,6 +286,47 @@ def parse_values(tokens: list[str]) -> dict[str, float]:
     return values
 
 
+def cmd_reconstruct(args):
+    from geocode.reconstruct import reconstruct
+
+    cfg = step_config(args, f"domain={args.domain}")
+    return reconstruct(cfg, args.domain, args.input, args.output, checkpoint=args.checkpoint,
+                       refine=args.refine, up=args.up)
+
+
+def cmd_mix(args):
+    from geocode import editing
+    from geocode.program import Program
+
+    program = Program.load(args.domain)
+    a, b = (editing.read_values(path, program) for path in (args.a, args.b))
+    take = editing.select(program, args.take)
+    editing.write_shape(args.output.with_suffix(""), program, editing.mix(a, b, take))
+    return f"wrote {args.output} ({len(take)} parameters from {args.b.name}: {', '.join(take)})"
+
+
+def cmd_interpolate(args):
+    from geocode import editing
+    from geocode.blender.gallery import render_strip
+    from geocode.program import Program
+
+    program = Program.load(args.domain)
+    a, b = (editing.read_values(path, program) for path in (args.a, args.b))
+    sequence = editing.interpolate(program, a, b, args.steps)
+    meshes = [editing.write_shape(args.output / f"step-{i:02d}", program, values)
+              for i, values in enumerate(sequence)]
+    render_strip(meshes, args.output / "strip.png")
+    return f"wrote {len(meshes)} shapes and strip.png to {args.output}"
+
+
+def cmd_addon_build(args):
+    from geocode.blender.addon import build_addon
+
+    counts = build_addon(args.output)
+    return f"wrote {args.output}: {sum(counts.values())} blocks (" + ", ".join(
+        f"{category} {n}" for category, n in counts.items()) + ")"
+
+
 def cmd_gallery(args):
     from geocode.blender.gallery import render_gallery
 
@@ -253,7 +338,7 @@ def cmd_bench(args):
     if args.stage == "program":
         from geocode.program import bench
 
-        return bench(args.domain, n=args.n)
+        return bench(args.domain, n=args.n or 200)
     if args.stage == "dataset":
         from geocode.blender.bench import bench_dataset
 
@@ -266,6 +351,11 @@ def cmd_bench(args):
         from geocode.models.bench import bench_epoch
 
         return bench_epoch(args.clouds, args.sketches, device=args.device)
+    if args.stage == "fit":
+        from geocode.config import compose
+        from geocode.fit import bench_fit
+
+        return bench_fit(compose([f"domain={args.domain}", *args.overrides]), args.domain, n=args.n or 20)
     from geocode.evaluation import bench_eval
 
     return bench_eval(args.domain)
@@ -273,11 +363,11 @@ def cmd_bench(args):
 
 # -- pipeline steps -------------------------------------------------------------------------
 
-def step_config(args):
+def step_config(args, *fixed: str):
     """The composed config; a --shard outside 0 .. data.shards - 1 is refused."""
     from geocode.config import ConfigError, compose
 
-    cfg = compose(args.overrides)
+    cfg = compose([*fixed, *args.overrides])
     shard = getattr(args, "shard", None)
     if shard is not None and not 0 <= shard < cfg.data.shards:
         raise ConfigError(f"--shard {shard}", f"out of range for data.shards={cfg.data.shards}",
@@ -387,7 +477,7 @@ def cmd_report(args):
 # Commands that start Blender: it is imported first, with stop signals held until it is up.
 BLENDER = {cmd_programs, cmd_program_show, cmd_program_build, cmd_shape, cmd_gallery, cmd_export,
            cmd_sketch, cmd_rebuild}
-STEPS = {cmd_report, cmd_sample, cmd_export, cmd_sketch, cmd_points, cmd_train, cmd_config, cmd_simplify,
+STEPS = {cmd_reconstruct, cmd_report, cmd_sample, cmd_export, cmd_sketch, cmd_points, cmd_train, cmd_config, cmd_simplify,
          cmd_predict, cmd_rebuild, cmd_metrics, cmd_tables}
 
 

@@ -40,6 +40,28 @@ def programs_dir() -> Path:
     return repo_root() / "programs"
 
 
+def registry() -> list[str]:
+    """The domains, sorted: every program `<domain>.py` with its recipe `<domain>.yaml` beside it
+    (names starting with `_` are helpers, not programs)."""
+    return sorted(p.stem for p in programs_dir().glob("*.py")
+                  if not p.stem.startswith("_") and p.with_suffix(".yaml").exists())
+
+
+def recipe_path(domain: str) -> Path:
+    return programs_dir() / f"{domain}.yaml"
+
+
+def _register_domains() -> None:
+    """The `domain` config group, one option per registry domain (`domain=chair` sets
+    domain.name), so that a new domain needs its program and recipe and nothing in conf/."""
+    from hydra.core.config_store import ConfigStore
+
+    store = ConfigStore.instance()
+    store.repo.pop("domain", None)  # the registry may have changed since the last compose
+    for domain in registry():
+        store.store(group="domain", name=domain, node={"name": domain})
+
+
 def compose(overrides: Sequence[str] = ()) -> DictConfig:
     """The composed config, as `geocode <step> key=value ...` and the Snakefile both see it."""
     from hydra import compose as hydra_compose
@@ -49,11 +71,17 @@ def compose(overrides: Sequence[str] = ()) -> DictConfig:
     from omegaconf.errors import OmegaConfBaseException
 
     GlobalHydra.instance().clear()
+    _register_domains()
     try:
         with initialize_config_dir(str(repo_root() / "conf"), version_base="1.3"):
             cfg = hydra_compose("config", overrides=list(overrides))
     except (HydraException, ValueError) as exc:  # Hydra's override parser raises ValueError too
         first = str(exc).strip().splitlines()[0]
+        if unknown := re.search(r"Could not find 'domain/([^']*)'", first):
+            raise ConfigError(
+                f"domain={unknown[1]}: no such domain; use one of {', '.join(registry()) or 'none'}, "
+                f"or add programs/{unknown[1]}.py with its recipe programs/{unknown[1]}.yaml "
+                f"(in {programs_dir()})") from None
         raise ConfigError(f"conf/: {first}; {KEYS_HINT} for the groups and keys") from None
     try:
         validate(cfg)
@@ -107,7 +135,6 @@ SETTINGS = {key: Setting(meaning, *rule) for key, (meaning, rule) in {
     "domains": ("domains the workflow fans out over; null: every program with a recipe",
                 ("null or a list of domains", lambda v: v is None or _each(_NAME)[1](v))),
     "domain.name": ("the domain a step works on (choose it with domain=<name>)", _NAME),
-    "domain.recipe": ("the domain's recipe YAML, relative to the repository", _TEXT),
     "paths.data": ("datasets: <data>/<domain>/<split>/", _TEXT),
     "paths.runs": ("trained models and evaluations: <runs>/<domain>/<variant>/", _TEXT),
     "paths.build": ("built programs (.blend) and their manifests", _TEXT),
@@ -209,7 +236,7 @@ def _check_cameras(cameras) -> None:
 def _check_known(cfg: DictConfig) -> None:
     """Names that become folders or imports come from a known set (domain.name is only a
     name: a step may work from a manifest and a recipe without the program)."""
-    known = registered_domains()
+    known = registry()
     for name in cfg.domains or []:
         if name not in known:
             raise ConfigError(f"domains={name}", f"no such domain in {programs_dir()}",
@@ -247,9 +274,10 @@ def group_options(group: str) -> list[str]:
 def describe_keys(cfg: DictConfig) -> str:
     """`geocode config --keys`: the groups with their choices, then every key with its value
     in `cfg` (the defaults, or with the overrides given) and its meaning."""
-    groups = sorted(p.name for p in (repo_root() / "conf").iterdir() if p.is_dir())
+    groups = {p.name: group_options(p.name) for p in (repo_root() / "conf").iterdir() if p.is_dir()}
+    groups["domain"] = registry()
     lines = ["groups (choose with <group>=<choice>):"]
-    lines += [f"  {g:<10} {', '.join(group_options(g))}" for g in groups]
+    lines += [f"  {g:<10} {', '.join(options)}" for g, options in sorted(groups.items())]
     lines.append("keys (set with key=value):")
     for key, value in flat(cfg).items():
         setting = SETTINGS.get(key)
@@ -266,13 +294,8 @@ def config_hash(cfg: DictConfig) -> str:
 
 
 def domains(cfg: DictConfig) -> list[str]:
-    """The domains the workflow runs: `domains` from config, or every program with a recipe."""
-    return list(cfg.domains) if cfg.domains else registered_domains()
-
-
-def registered_domains() -> list[str]:
-    """Every program in the programs folder with a recipe beside it."""
-    return sorted(p.stem for p in programs_dir().glob("*.py") if p.with_suffix(".yaml").exists())
+    """The domains the workflow runs: `domains` from config, or every domain in the registry."""
+    return list(cfg.domains) if cfg.domains else registry()
 
 
 def simplified_split(factor: int) -> str:

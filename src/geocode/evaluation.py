@@ -1,4 +1,5 @@
-"""Evaluation steps (no bpy): robustness inputs, prediction, metrics (SPEC §5-6).
+"""Evaluation steps (no bpy): robustness inputs, prediction, metrics
+(docs/paper-numbers.md#evaluation and #robustness).
 
 Conditions are the inputs a model is tested on: clean point clouds, sketches from each
 camera, noisy and sparse clouds, and point clouds and sketches of simplified test meshes.
@@ -8,7 +9,6 @@ ordinary sketch and points stages make its inputs.
 
 from __future__ import annotations
 
-import hashlib
 import logging
 import time
 from pathlib import Path
@@ -28,6 +28,8 @@ from geocode.meshio import (
     write_parquet,
     write_text,
 )
+from geocode.seeds import generator
+from geocode.timing import Stopwatch
 from geocode.variations import load_recipes, save_recipes
 
 log = logging.getLogger("geocode.evaluation")
@@ -60,12 +62,6 @@ def test_ids(cfg: DictConfig, domain: str) -> list[str]:
     return ids if keep is None else ids[:keep]
 
 
-def id_seed(seed: int, *keys) -> np.random.Generator:
-    """A generator fixed by (seed, keys): the same input every run, whatever the order."""
-    digest = hashlib.sha256(repr((seed, *keys)).encode()).digest()
-    return np.random.default_rng(int.from_bytes(digest[:8], "little"))
-
-
 # -- robustness inputs ------------------------------------------------------------------------
 
 def simplify_step(cfg: DictConfig, domain: str, factor: int) -> str:
@@ -95,13 +91,13 @@ def point_input(cfg: DictConfig, domain: str, cond: dict, shape_id: str) -> np.n
     from geocode.points import add_noise, load_clouds, sparse_cloud
     from geocode.training_data import eval_cloud
 
-    rng = id_seed(cfg.seed, "eval", cond["condition"], shape_id)
+    rng = generator(cfg.seed, "eval", cond["condition"], shape_id)
     if cond["sparse"]:
         mesh = read_obj(data_dir(cfg, domain, "test") / "shapes" / f"{shape_id}.obj", REDO_EXPORT)
         return sparse_cloud(mesh, cond["sparse"], rng)
     split = "test" if cond["source"] == "test" else f"test-{cond['source']}"
     clouds = load_clouds(data_dir(cfg, domain, split) / "points" / f"{shape_id}.npz")
-    cloud = eval_cloud(clouds, cfg.data.points.train_random, shape_id)
+    cloud = eval_cloud(clouds, cfg.data.points.train_random, cfg.seed, shape_id)
     return add_noise(cloud, cond["noise"], rng) if cond["noise"] else cloud
 
 
@@ -201,7 +197,7 @@ def metrics_step(cfg: DictConfig, domain: str, predictions: Path, out: Path) -> 
         if clean and (rec["modality"] == "pc" or rec["camera"] in cams):
             stable = float(drop_test(pred)["stable"])
         for gt_id, gt in targets:
-            rng = id_seed(cfg.seed, "chamfer", rec["condition"], gt_id)
+            rng = generator(cfg.seed, "chamfer", rec["condition"], gt_id)
             cd = chamfer_meshes(pred, gt, n=cfg.eval.chamfer_points, rng=rng)
             rows.append({**rec, "id": gt_id, "chamfer": cd, "stable": stable})
     rows += [dict(condition="gt", modality="gt", source="test", camera="", noise=0.0, sparse=0,
@@ -222,9 +218,9 @@ def bench_eval(domain: str, n: int = 40) -> dict:
 
     program = load_program(domain)
     meshes = [unit_mesh(program, values) for _, values in random_rows(program, n, seed=2)]
-    start = time.perf_counter()
-    stable = [drop_test(mesh)["stable"] for mesh in meshes]
-    drop_s = (time.perf_counter() - start) / n
+    with Stopwatch() as clock:
+        stable = [drop_test(mesh)["stable"] for mesh in meshes]
+    drop_s = clock.seconds / n
     return {"n": n, "rebuild_shapes_per_s": round(bench_rebuild(domain, n, program=program), 2),
             "chamfer_ms": round(bench_chamfer(), 2), "drop_test_s": round(drop_s, 3),
             "stable_rate": round(float(np.mean(stable)), 3)}

@@ -7,8 +7,9 @@ anything else raises `ExprError` with a one-line message. Nothing is ever compil
 
 Evaluation semantics: numbers are floats, comparisons give bools, `and`/`or`/`not` use
 truthiness (non-zero is true) and give bools. Division follows IEEE floats (x/0 is +-inf, 0/0 is
-nan, and nan compares false), the same in `evaluate` and the vectorised `evaluate_array`, so
-that a constraint checked one shape at a time and over a batch always agree.
+nan, and nan compares false). Each node implements its rule once, over batches
+(`evaluate_array`); `evaluate` runs it on scalars, so a constraint checked one shape at a time
+and over a batch always agree.
 
 Round trip: `parse(str(e)) == e` for every tree. To keep that true, unary minus on a number
 literal is folded into the literal (`-1` is `Const(-1)`), and `Neg(Const(number))` is refused.
@@ -57,18 +58,15 @@ class ExprError(ValueError):
     """A bad expression, or one that cannot be evaluated; the message is one line."""
 
 
-def _number(x):
-    """Bools are numbers in arithmetic (true + 1 == 2), as in Python and numpy."""
-    return float(x) if isinstance(x, bool) else x
-
-
 class Expr:
     """Base of the immutable expression tree."""
 
     precedence = PREC_ATOM
 
     def evaluate(self, values: Mapping[str, float]) -> float | bool:
-        raise NotImplementedError
+        """The value for one set of values: the batch rule (`evaluate_array`) on scalars, so a
+        rule checked one shape at a time and over a batch cannot disagree."""
+        return self.evaluate_array(values).item()
 
     def evaluate_array(self, columns: Mapping[str, np.ndarray | float]) -> np.ndarray:
         """Evaluate over a batch: `columns` maps names to 1-d arrays (or scalars, broadcast)."""
@@ -101,9 +99,6 @@ class Const(Expr):
         is_negative = not isinstance(self.value, bool) and self.value < 0
         return PREC_NEG if is_negative else PREC_ATOM
 
-    def evaluate(self, values):
-        return self.value
-
     def evaluate_array(self, columns):
         return np.asarray(self.value)
 
@@ -127,12 +122,6 @@ class Name(Expr):
         valid = isinstance(self.id, str) and self.id.isidentifier()
         if not valid or keyword.iskeyword(self.id) or self.id in LITERALS:
             raise ExprError(f"{self.id!r} cannot be a parameter name")
-
-    def evaluate(self, values):
-        try:
-            return values[self.id]
-        except KeyError:
-            raise ExprError(f"no value for {self.id!r}") from None
 
     def evaluate_array(self, columns):
         try:
@@ -168,9 +157,6 @@ class Compare(Expr):
         if self.op not in COMPARE_OPS:
             raise ExprError(f"unknown comparison {self.op!r}; use one of {' '.join(COMPARE_OPS)}")
 
-    def evaluate(self, values):
-        return bool(_COMPARE[self.op](self.left.evaluate(values), self.right.evaluate(values)))
-
     def evaluate_array(self, columns):
         return _COMPARE[self.op](
             self.left.evaluate_array(columns), self.right.evaluate_array(columns)
@@ -183,16 +169,6 @@ class Compare(Expr):
         # Both sides above comparison level: `(a < b) == c` must not print as a chain.
         left = self._child_str(self.left, PREC_COMPARE + 1)
         return f"{left} {self.op} {self._child_str(self.right, PREC_COMPARE + 1)}"
-
-
-def _divide(a, b):
-    """IEEE division for Python scalars, matching numpy's arrays."""
-    a, b = float(a), float(b)
-    if b != 0:
-        return a / b
-    if a == 0 or math.isnan(a):
-        return math.nan
-    return math.copysign(math.inf, a) * math.copysign(1.0, b)
 
 
 _ARITHMETIC = {
@@ -215,13 +191,6 @@ class BinOp(Expr):
     @property
     def precedence(self):
         return PREC_ADD if self.op in "+-" else PREC_MUL
-
-    def evaluate(self, values):
-        left = _number(self.left.evaluate(values))
-        right = _number(self.right.evaluate(values))
-        if self.op == "/":
-            return _divide(left, right)
-        return float(_ARITHMETIC[self.op](left, right))
 
     def evaluate_array(self, columns):
         left = self.left.evaluate_array(columns).astype(np.float64)
@@ -249,9 +218,6 @@ class Neg(Expr):
         if isinstance(self.x, Const) and not isinstance(self.x.value, bool):
             raise ExprError("write a negative number as Const(-v), not Neg(Const(v))")
 
-    def evaluate(self, values):
-        return -float(_number(self.x.evaluate(values)))
-
     def evaluate_array(self, columns):
         return -self.x.evaluate_array(columns).astype(np.float64)
 
@@ -266,9 +232,6 @@ class Neg(Expr):
 class Not(Expr):
     x: Expr
     precedence = PREC_NOT
-
-    def evaluate(self, values):
-        return not self.x.evaluate(values)
 
     def evaluate_array(self, columns):
         return np.logical_not(self.x.evaluate_array(columns))
@@ -292,6 +255,9 @@ class _BoolOp(Expr):
         if not all(isinstance(item, Expr) for item in self.items):
             raise ExprError(f"{type(self).__name__} items must be expressions")
 
+    def evaluate_array(self, columns):
+        return functools.reduce(self.combine, (item.evaluate_array(columns) for item in self.items))
+
     def names(self):
         return frozenset().union(*(item.names() for item in self.items))
 
@@ -305,14 +271,7 @@ class And(_BoolOp):
     items: tuple
     precedence = PREC_AND
     word = "and"
-
-    def evaluate(self, values):
-        return all(item.evaluate(values) for item in self.items)
-
-    def evaluate_array(self, columns):
-        return functools.reduce(
-            np.logical_and, (item.evaluate_array(columns) for item in self.items)
-        )
+    combine = np.logical_and
 
 
 @dataclass(frozen=True)
@@ -320,14 +279,7 @@ class Or(_BoolOp):
     items: tuple
     precedence = PREC_OR
     word = "or"
-
-    def evaluate(self, values):
-        return any(item.evaluate(values) for item in self.items)
-
-    def evaluate_array(self, columns):
-        return functools.reduce(
-            np.logical_or, (item.evaluate_array(columns) for item in self.items)
-        )
+    combine = np.logical_or
 
 
 # ---------------------------------------------------------------- parsing

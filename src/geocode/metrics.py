@@ -1,8 +1,6 @@
-"""Chamfer distance between shapes (SPEC §5)."""
+"""Chamfer distance between shapes (docs/paper-numbers.md#evaluation)."""
 
 from __future__ import annotations
-
-import time
 
 import numpy as np
 import trimesh
@@ -10,6 +8,7 @@ from scipy.spatial import cKDTree
 
 from geocode.meshio import normalise_unit_sphere
 from geocode.points import sample_surface
+from geocode.timing import seconds_per_call
 
 
 def chamfer(a_points: np.ndarray, b_points: np.ndarray, workers: int = -1) -> float:
@@ -46,10 +45,4 @@ def bench_chamfer(n: int = 10000, repeats: int = 20) -> float:
     """Milliseconds per chamfer() of two n-point clouds (median of `repeats`)."""
     rng = np.random.default_rng(0)
     a, b = rng.normal(size=(2, n, 3)).astype(np.float32)
-    chamfer(a, b)  # warm-up
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        chamfer(a, b)
-        times.append(time.perf_counter() - t0)
-    return float(np.median(times) * 1000)
+    return seconds_per_call(lambda: chamfer(a, b), repeats) * 1000

@@ -1,12 +1,10 @@
-"""Point clouds from meshes (SPEC §3, §6): surface sampling, farthest point sampling,
-the per-shape clouds of the dataset, and the perturbed inputs of the robustness tables."""
+"""Point clouds from meshes (docs/paper-numbers.md#dataset-generation and #robustness): surface
+sampling, farthest point sampling, the per-shape clouds of the dataset, and the perturbed inputs of the robustness tables."""
 
 from __future__ import annotations
 
-import hashlib
 import io
 import logging
-import time
 import zipfile
 from collections.abc import Mapping
 from pathlib import Path
@@ -18,6 +16,8 @@ import trimesh
 from geocode import meshio
 from geocode.errors import UserError, one_line
 from geocode.meshio import REDO_EXPORT
+from geocode.seeds import generator
+from geocode.timing import Progress, seconds_per_call
 
 log = logging.getLogger(__name__)
 
@@ -119,7 +119,7 @@ def make_clouds(
     random: int = 1500,
     rng: np.random.Generator | None = None,
 ) -> dict[str, np.ndarray]:
-    """The two clouds of one shape (SPEC §3), float32: "fps" = farthest point sampling of
+    """The two clouds of one shape (docs/paper-numbers.md#dataset-generation), float32: "fps" = farthest point sampling of
     `surface` area-weighted samples; "random" = a uniform random subset of those samples
     (itself a uniform surface sample). rng=None means default_rng(0)."""
     rng = np.random.default_rng(0) if rng is None else rng
@@ -182,13 +182,6 @@ def simplify(mesh: trimesh.Trimesh, fraction: float) -> trimesh.Trimesh:
     return trimesh.Trimesh(np.asarray(out.vertices), np.asarray(out.triangles), process=False)
 
 
-def shape_seed(seed: int, shape_id: str, stage: str = "points") -> int:
-    """A 64-bit seed from (seed, id, stage) via SHA-256: stable across processes and
-    Python versions, unlike hash()."""
-    digest = hashlib.sha256(f"{int(seed)}:{stage}:{shape_id}".encode()).digest()
-    return int.from_bytes(digest[:8], "little")
-
-
 def _complete(path: Path) -> bool:
     """Whether a clouds file exists and holds both clouds (writes are atomic, so this is
     a cheap guard against files from some other tool)."""
@@ -199,23 +192,6 @@ def _complete(path: Path) -> bool:
             return all(k in data.files for k in CLOUD_KEYS)
     except (OSError, ValueError, EOFError, zipfile.BadZipFile):
         return False
-
-
-class _Progress:
-    """A log line at most every `every` seconds: count, rate, ETA."""
-
-    def __init__(self, total: int, label: str, every: float = 5.0):
-        self.total, self.label, self.every = total, label, every
-        self.t0 = self.last = time.perf_counter()
-
-    def update(self, done: int) -> None:
-        now = time.perf_counter()
-        if now - self.last < self.every and done < self.total:
-            return
-        self.last = now
-        rate = done / max(now - self.t0, 1e-9)
-        eta = (self.total - done) / rate if rate > 0 else float("inf")
-        log.info("%s: %d/%d shapes, %.1f/s, ETA %.0f s", self.label, done, self.total, rate, eta)
 
 
 def points_shard(
@@ -234,14 +210,15 @@ def points_shard(
         raise UserError(ids_file, "missing", f"run the export step for shard {shard} first")
     ids = [line.strip() for line in ids_file.read_text().splitlines() if line.strip()]
     sizes = {k: int(cfg_points[k]) for k in ("surface", "fps", "random")}
-    progress = _Progress(len(ids), f"points shard {shard}")
-    for count, shape_id in enumerate(ids, 1):
+    progress = Progress(f"points shard {shard}", len(ids), log)
+    for shape_id in ids:
         out = split_dir / "points" / f"{shape_id}.npz"
         if not _complete(out):
             mesh = meshio.read_obj(split_dir / "shapes" / f"{shape_id}.obj", REDO_EXPORT)
-            rng = np.random.default_rng(shape_seed(seed, shape_id))
+            rng = generator(seed, "points", shape_id)
             save_clouds(out, make_clouds(mesh, **sizes, rng=rng))
-        progress.update(count)
+        progress.step()
+    progress.finish()
     done = split_dir / "done" / f"points-{shard}.txt"
     meshio.write_text(done, "".join(f"{i}\n" for i in ids))
     return done
@@ -259,8 +236,4 @@ def bench_clouds(n: int = 50) -> float:
     """Clouds per second for make_clouds at the paper's sizes on a ~10K-face mesh."""
     mesh = bench_mesh()
     rng = np.random.default_rng(0)
-    make_clouds(mesh, rng=rng)  # warm-up
-    t0 = time.perf_counter()
-    for _ in range(n):
-        make_clouds(mesh, rng=rng)
-    return n / (time.perf_counter() - t0)
+    return 1.0 / seconds_per_call(lambda: make_clouds(mesh, rng=rng), n)

@@ -15,7 +15,6 @@ import math
 import os
 import statistics
 import tempfile
-import time
 from collections.abc import Mapping
 from pathlib import Path
 from types import ModuleType
@@ -23,23 +22,17 @@ from types import ModuleType
 import numpy as np
 import trimesh
 
-from geocode.config import PROGRAMS_ENV, programs_dir  # noqa: F401 (PROGRAMS_ENV re-exported)
+from geocode.config import PROGRAMS_ENV, programs_dir, recipe_path, registry  # noqa: F401 (PROGRAMS_ENV, registry re-exported)
 from geocode.errors import UserError
 from geocode.expr import Expr
 from geocode.recipe import Parameter
+from geocode.timing import Stopwatch
 
 AXES = ("x", "y", "z")
 _KINDS = {"NodeSocketBool": "bool", "NodeSocketInt": "int", "NodeSocketFloat": "float",
           "NodeSocketVector": "vector"}
 _UNBOUNDED = 1e30  # Blender's default socket range is +-3.4e38: treat as "not given"
 _LOADED: dict[str, Program] = {}  # by program file: one build per process
-
-
-def registry() -> list[str]:
-    """Domains with both a program `<domain>.py` and a recipe `<domain>.yaml`, sorted."""
-    folder = programs_dir()
-    return sorted(p.stem for p in folder.glob("*.py")
-                  if not p.stem.startswith("_") and p.with_suffix(".yaml").exists())
 
 
 def _import_program(domain: str) -> ModuleType:
@@ -149,7 +142,7 @@ class Program:
         """The recipe `<programs>/<domain>.yaml`, checked against this program's parameters."""
         from geocode.recipe import Recipe
 
-        return Recipe.load(programs_dir() / f"{self.domain}.yaml", self.parameters, self.visibility())
+        return Recipe.load(recipe_path(self.domain), self.parameters, self.visibility())
 
     def manifest(self) -> dict:
         rules = self.visibility()
@@ -254,12 +247,12 @@ def bench(domain: str, n: int = 200, seed: int = 0) -> dict:
     samples = [program.random_values(rng) for _ in range(n)]
     meshes = []
     with tempfile.TemporaryDirectory() as tmp:
-        start = time.perf_counter()
-        for i, values in enumerate(samples):
-            mesh = program.evaluate(values)
-            write_obj(Path(tmp) / f"{i:06d}.obj", mesh)
-            meshes.append(mesh)
-        elapsed = time.perf_counter() - start
+        with Stopwatch() as clock:
+            for i, values in enumerate(samples):
+                mesh = program.evaluate(values)
+                write_obj(Path(tmp) / f"{i:06d}.obj", mesh)
+                meshes.append(mesh)
+    elapsed = clock.seconds
     loose = sum(loose_parts(mesh) > 0 for mesh in meshes)
     nonfinite = sum(not np.isfinite(mesh.vertices).all() for mesh in meshes)
     return {"n": n, "shapes_per_s": round(n / elapsed, 2),

@@ -1,10 +1,14 @@
-"""Recipes: which program parameters a dataset varies, their classes and normalised labels (no bpy).
+"""Recipes: which program parameters a dataset learns, their classes and normalised labels (no bpy).
 
-A program exposes `Parameter`s (through its manifest, see `load_manifest`); a recipe
-(`programs/<domain>.yaml`) picks some of them, narrows their ranges and sets the number of
-classes of each continuous one. Labels follow SPEC §2: float (v-min)/(max-min), int v-min,
-bool 0/1, and -1 where the parameter is invisible. A parameter with a visibility rule gets one
-extra class, the existence class, at the last index.
+A program declares every parameter's range once, and its manifest carries it here (see
+`load_manifest`). A recipe (`programs/<domain>.yaml`) names the parameters a dataset learns and
+says only what it changes: the number of classes of each continuous parameter, optionally a
+narrower range, and constraints (docs/design.md, "Recipe"). Labels (docs/paper-numbers.md#labels):
+float (v-min)/(max-min), int v-min, bool 0/1, and -1 where the parameter is invisible. A
+parameter with a visibility rule gets one extra class, the existence class, at the last index.
+
+Both files are checked against a schema (pydantic); every problem is one line
+`file: field: problem; fix`.
 """
 
 from __future__ import annotations
@@ -14,10 +18,12 @@ import os
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Literal
 
 import numpy as np
 import pandas as pd
 import yaml
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from geocode.errors import UserError
 from geocode.expr import Expr, ExprError, parse
@@ -57,6 +63,141 @@ class Parameter:
     description: str = ""
 
 
+# ---------------------------------------------------------------- schemas
+
+
+class _Schema(BaseModel):
+    model_config = ConfigDict(extra="forbid", strict=True, allow_inf_nan=False)
+
+
+class _ManifestEntry(_Schema):
+    model_config = ConfigDict(strict=False)  # the manifest is JSON we wrote: 1 may stand for 1.0
+    name: str = Field(pattern=r"^[A-Za-z_][A-Za-z0-9_]*$")
+    kind: Literal["bool", "int", "float"]
+    min: float
+    max: float
+    default: float
+    description: str | None = ""
+    visible_if: str | None = None
+
+    @model_validator(mode="after")
+    def _default_in_range(self):
+        if not self.min <= self.default <= self.max:
+            raise ValueError(f"default {self.default:g} outside [{self.min:g}, {self.max:g}]")
+        return self
+
+
+class _Manifest(_Schema):
+    model_config = ConfigDict(extra="ignore", strict=False)
+    parameters: list[_ManifestEntry]
+
+
+class _RecipeEntry(_Schema):
+    """One learned parameter; min and max default to the program's range."""
+
+    min: float | None = None
+    max: float | None = None
+    samples: int | None = Field(None, ge=2)
+
+
+class _RecipeFile(_Schema):
+    parameters: dict[str, _RecipeEntry | None] = Field(min_length=1)
+    constraints: list[str] | None = None
+
+
+_MANIFEST_FIX = "rebuild the program's manifest (geocode program build)"
+_ENTRY_FIX = "write {samples: n} for a float, nothing for an int or bool, and min/max only to narrow"
+
+
+def _fix(where: str, error_type: str) -> str:
+    """What to do about a problem in a recipe, by the field it is in."""
+    if error_type == "extra_forbidden":
+        return ("use only `parameters` and `constraints`" if "." not in where
+                else "use min, max and (floats only) samples")
+    if where == "(top level)":
+        return "write `parameters:` and optional `constraints:`"
+    if where == "parameters":
+        return "map at least one program parameter to {samples: n} (floats) or nothing (int, bool)"
+    if where.startswith("constraints"):
+        return 'write a list of strings such as - "a <= b"'
+    if where.endswith(".samples"):
+        return "give the number of classes (2 or more): the classes include both ends"
+    if where.endswith((".min", ".max")):
+        return "give a number, or leave it out to take the program's"
+    return _ENTRY_FIX
+
+
+def _validated(schema: type[BaseModel], data, source, manifest: bool = False):
+    """`data` checked against `schema`; the first problem as a one-line RecipeError."""
+    try:
+        return schema.model_validate(data)
+    except ValidationError as exc:
+        error = exc.errors()[0]
+    where = _where(error["loc"], data)
+    _fail(source, where, _problem(error, where),
+          _MANIFEST_FIX if manifest else _fix(where, error["type"]))
+
+
+def _where(loc: tuple, data) -> str:
+    """A pydantic location as a YAML path: parameters.height.min, constraints[0]; list items
+    that have a name are shown by name (parameters.width.max)."""
+    if not loc:
+        return "(top level)"
+    parts, node = [], data
+    for key in loc:
+        node = _child(node, key)
+        if isinstance(key, int):
+            name = node.get("name") if isinstance(node, dict) else None
+            parts.append(f".{name}" if isinstance(name, str) else f"[{key}]")
+        else:
+            parts.append(f".{key}")
+    return "".join(parts).lstrip(".")
+
+
+def _child(node, key):
+    if isinstance(node, dict):
+        return node.get(key)
+    if isinstance(node, list) and isinstance(key, int) and key < len(node):
+        return node[key]
+    return None
+
+
+def _problem(error: dict, where: str) -> str:
+    kind, value = error["type"], error.get("input")
+    if where == "parameters" and kind in ("missing", "too_short", "dict_type"):
+        return "missing, empty or not a mapping"
+    if kind in ("float_type", "int_type") and isinstance(value, bool):
+        return f"{value!r} is a bool"
+    problems = {
+        "missing": "missing",
+        "extra_forbidden": "unknown key",
+        "model_type": f"{_short(value)} is not a mapping",
+        "dict_type": f"{_short(value)} is not a mapping",
+        "list_type": "not a list",
+        "string_type": f"{_short(value)} is not a string",
+        "string_pattern_mismatch": f"{_short(value)} is not an identifier",
+        "int_type": f"{_short(value)} is not an integer",
+        "int_from_float": f"{_short(value)} is not an integer",
+        "float_type": f"{_short(value)} is not a finite number",
+        "float_parsing": f"{_short(value)} is not a finite number",
+        "finite_number": f"{_short(value)} is not a finite number",
+        "greater_than_equal": f"{_short(value)} is below 2",
+        "literal_error": f"{_short(value)} unknown, use one of {', '.join(KINDS)}",
+    }
+    if kind == "value_error":
+        return str(error["ctx"]["error"])
+    return problems.get(kind, _one_line(error["msg"]))
+
+
+def _short(value) -> str:
+    text = repr(value)
+    return text if len(text) <= 40 else text[:37] + "..."
+
+
+def _one_line(exc) -> str:
+    return " ".join(str(exc).split())
+
+
 # ---------------------------------------------------------------- manifest
 
 
@@ -78,86 +219,29 @@ def load_manifest(path: str | os.PathLike) -> tuple[list[Parameter], dict[str, E
 
 def parse_manifest(data, source="<manifest>") -> tuple[list[Parameter], dict[str, Expr | None]]:
     """The manifest's parameters and visibility rules (None = always visible), validated."""
-    entries = data.get("parameters") if isinstance(data, dict) else None
-    if not isinstance(entries, list):
-        _fail(source, "parameters", "missing or not a list", "rebuild the program's manifest")
-    parameters = [_manifest_parameter(entry, i, source) for i, entry in enumerate(entries)]
-    names = [p.name for p in parameters]
-    if len(set(names)) != len(names):
-        duplicate = next(n for n in names if names.count(n) > 1)
+    entries = _validated(_Manifest, data, source, manifest=True).parameters
+    names = [e.name for e in entries]
+    duplicate = next((n for n in names if names.count(n) > 1), None)
+    if duplicate:
         _fail(source, f"parameters.{duplicate}", "appears twice", "give every parameter one entry")
-    visibility = {}
-    for entry, parameter in zip(entries, parameters, strict=True):
-        rule = entry.get("visible_if")
-        visibility[parameter.name] = (
-            None
-            if rule is None
-            else _parse_rule(
-                rule,
-                names,
-                source,
-                f"parameters.{parameter.name}.visible_if",
-                "fix the program's Switch inputs",
-            )
-        )
+    parameters = [
+        Parameter(e.name, e.kind, e.min, e.max, e.default, e.description or "") for e in entries
+    ]
+    visibility = {
+        e.name: None
+        if e.visible_if is None
+        else _parse_rule(e.visible_if, names, source, f"parameters.{e.name}.visible_if",
+                         "fix the program's Switch inputs")
+        for e in entries
+    }
     return parameters, visibility
 
 
-def _manifest_parameter(entry, index: int, source) -> Parameter:
-    where = f"parameters[{index}]"
-    if not isinstance(entry, dict):
-        _fail(source, where, "not a mapping", "rebuild the program's manifest")
-    for key in ("name", "kind", "min", "max", "default"):
-        if key not in entry:
-            _fail(source, f"{where}.{key}", "missing", "rebuild the program's manifest")
-    name, kind = entry["name"], entry["kind"]
-    if not isinstance(name, str) or not name.isidentifier():
-        _fail(source, f"{where}.name", f"{name!r} is not an identifier", "rename the program input")
-    if kind not in KINDS:
-        _fail(
-            source, f"parameters.{name}.kind", f"{kind!r} unknown", f"use one of {', '.join(KINDS)}"
-        )
-    numbers = {}
-    for key in ("min", "max", "default"):
-        value = entry[key]
-        if isinstance(value, bool):
-            value = float(value)
-        if not isinstance(value, (int, float)) or not np.isfinite(value):
-            _fail(
-                source,
-                f"parameters.{name}.{key}",
-                f"{value!r} is not a finite number",
-                "fix the program input",
-            )
-        numbers[key] = float(value)
-    if not numbers["min"] <= numbers["default"] <= numbers["max"]:
-        _fail(
-            source,
-            f"parameters.{name}",
-            f"default {numbers['default']:g} outside [{numbers['min']:g}, {numbers['max']:g}]",
-            "fix the program input's range or default",
-        )
-    return Parameter(
-        name,
-        kind,
-        numbers["min"],
-        numbers["max"],
-        numbers["default"],
-        str(entry.get("description") or ""),
-    )
-
-
-def _parse_rule(text, names: Iterable[str], source, field_name: str, fix: str) -> Expr:
-    if not isinstance(text, str):
-        _fail(source, field_name, f"{text!r} is not a string", fix)
+def _parse_rule(text: str, names: Iterable[str], source, field_name: str, fix: str) -> Expr:
     try:
         return parse(text, names=names)
     except ExprError as exc:
         _fail(source, field_name, str(exc), fix)
-
-
-def _one_line(exc: Exception) -> str:
-    return " ".join(str(exc).split())
 
 
 # ---------------------------------------------------------------- recipe parameters
@@ -195,7 +279,7 @@ class RecipeParameter:
         return len(self.classes) if self.has_existence else None
 
     def normalise(self, values: np.ndarray | float) -> np.ndarray:
-        """Raw values -> labels of visible shapes (SPEC §2)."""
+        """Raw values -> labels of visible shapes (docs/paper-numbers.md#labels)."""
         values = np.asarray(values, dtype=np.float64)
         if self.kind == "float":
             return (values - self.min) / (self.max - self.min)
@@ -236,14 +320,54 @@ def make_classes(kind: str, low: float, high: float, samples: int | None) -> np.
     return np.arange(round(low), round(high) + 1, dtype=np.float64)
 
 
-# ---------------------------------------------------------------- the recipe
+def _learned(program: Parameter, entry: _RecipeEntry, visible_if: Expr | None, source):
+    """The recipe's entry for one program parameter, checked against the program's range."""
+    where = f"parameters.{program.name}"
+    if program.kind == "float" and entry.samples is None:
+        _fail(source, f"{where}.samples", "missing for a float parameter",
+              f"give its number of classes: `{program.name}: {{samples: 4}}`")
+    if program.kind != "float" and entry.samples is not None:
+        _fail(source, f"{where}.samples", f"given for the {program.kind} parameter",
+              "remove it: int and bool parameters have one class per value")
+    low = _bound(program, entry.min, "min", source)
+    high = _bound(program, entry.max, "max", source)
+    if low > high:
+        _fail(source, f"{where}.min", f"{low:g} is greater than max {high:g}",
+              "swap them or fix one")
+    if program.kind == "float" and low == high:
+        _fail(source, f"{where}.max", "equals min, so every class is the same value",
+              "widen the range, or drop the parameter to keep it at its default")
+    classes = make_classes(program.kind, low, high, entry.samples)
+    return RecipeParameter(program.name, program.kind, low, high, program.default,
+                           entry.samples, classes, visible_if)
 
-ENTRY_KEYS = {"min", "max", "samples"}
-TOP_KEYS = {"parameters", "constraints"}
+
+def _bound(program: Parameter, value: float | None, key: str, source) -> float:
+    """A recipe bound: the program's where not given; inside the program's range."""
+    if value is None:
+        return program.min if key == "min" else program.max
+    where = f"parameters.{program.name}.{key}"
+    if program.kind != "float" and value != round(value):
+        _fail(source, where, f"{value!r} is not a whole number, the parameter is {program.kind}",
+              "give an integer")
+    tolerance = RANGE_TOLERANCE * max(1.0, abs(program.min), abs(program.max))
+    if not program.min - tolerance <= value <= program.max + tolerance:
+        _fail(source, where,
+              f"{value:g} is outside the program's range [{program.min:g}, {program.max:g}]",
+              f"a recipe may narrow the range, never widen it: give a {key} inside it, or "
+              f"leave {key} out to take the program's (widen the range in the program itself)")
+    return float(min(max(value, program.min), program.max))
+
+
+# ---------------------------------------------------------------- the recipe
 
 
 class Recipe:
-    """The learned parameters of one program, in program order, with the dataset's constraints."""
+    """The learned parameters of one program, in program order, with the dataset's constraints.
+
+    Every rule (visibility, labels, classes, constraints) is written once, over batches: an
+    (n, P) array or a frame of n rows, P = len(self). The one-shape methods (`labels`,
+    `class_indices`, `satisfies`) run the batch versions on one row."""
 
     def __init__(
         self,
@@ -259,6 +383,7 @@ class Recipe:
         self.names = [p.name for p in parameters]
         self.defaults = {p.name: p.default for p in program_parameters}
         self._by_name = {p.name: p for p in parameters}
+        self._n_values = np.array([p.n_values for p in parameters], dtype=np.int64)
 
     def __getitem__(self, name: str) -> RecipeParameter:
         return self._by_name[name]
@@ -288,9 +413,7 @@ class Recipe:
         except OSError as exc:
             raise RecipeError(path, f"cannot be read ({exc.strerror})", "give a readable YAML file") from None
         try:
-            data = yaml.load(
-                text, Loader=_UniqueKeyLoader
-            )  # a safe loader that also rejects duplicate keys
+            data = yaml.load(text, Loader=_UniqueKeyLoader)  # safe, and refuses repeated keys
         except yaml.YAMLError as exc:
             raise RecipeError(
                 f"{path}: not valid YAML ({_one_line(exc)}); fix the syntax"
@@ -305,42 +428,25 @@ class Recipe:
         visibility: Mapping[str, Expr | None],
         source: str = "<recipe>",
     ) -> Recipe:
-        if not isinstance(data, dict):
-            _fail(
-                source,
-                "(top level)",
-                "not a mapping",
-                "write `parameters:` and optional `constraints:`",
-            )
-        unknown = sorted(set(map(str, data)) - TOP_KEYS)
-        if unknown:
-            _fail(source, unknown[0], "unknown key", "use only `parameters` and `constraints`")
-        entries = data.get("parameters")
-        if not isinstance(entries, dict) or not entries:
-            _fail(
-                source,
-                "parameters",
-                "missing, empty or not a mapping",
-                "map at least one program parameter to {min, max[, samples]}",
-            )
+        spec = _validated(_RecipeFile, data, source)
         program = {p.name: p for p in parameters}
-        for name in entries:
-            if name not in program:
-                _fail(
-                    source,
-                    f"parameters.{name}",
-                    "unknown parameter",
-                    f"use one of the program's: {_some(program)}",
-                )
+        unknown = next((name for name in spec.parameters if name not in program), None)
+        if unknown is not None:
+            _fail(source, f"parameters.{unknown}", "unknown parameter",
+                  f"use one of the program's: {_some(program)}")
         learned = [
-            _recipe_parameter(program[p.name], entries[p.name], visibility.get(p.name), source)
+            _learned(p, spec.parameters[p.name] or _RecipeEntry(), visibility.get(p.name), source)
             for p in parameters
-            if p.name in entries
+            if p.name in spec.parameters
         ]
-        constraints = _constraints(data.get("constraints"), list(program), source)
+        constraints = [
+            _parse_rule(text, program, source, f"constraints[{i}]",
+                        "use parameter names, numbers, + - * /, comparisons, and/or/not")
+            for i, text in enumerate(spec.constraints or [])
+        ]
         return cls(learned, constraints, list(parameters), source)
 
-    # -------------------------------------------------------- one shape at a time (dicts)
+    # -------------------------------------------------------- one shape (one row of the batch rules)
 
     def full_values(self, values: Mapping[str, float]) -> dict[str, float]:
         """Every program parameter: the given values over the defaults."""
@@ -352,57 +458,44 @@ class Recipe:
             )
         return {**self.defaults, **{name: float(v) for name, v in values.items()}}
 
-    def visible(self, values: Mapping[str, float]) -> dict[str, bool]:
-        """Visibility of each recipe parameter, evaluated on the full values."""
-        full = self.full_values(values)
-        return {
-            p.name: p.visible_if is None or bool(p.visible_if.evaluate(full))
-            for p in self.parameters
-        }
+    def _row(self, values: Mapping[str, float]) -> dict[str, np.ndarray]:
+        return {name: np.array([v]) for name, v in self.full_values(values).items()}
 
     def labels(self, values: Mapping[str, float]) -> dict[str, float]:
         """Normalised labels, -1 where invisible."""
-        full = self.full_values(values)
-        visible = self.visible(values)
-        return {
-            p.name: float(p.normalise(full[p.name])) if visible[p.name] else INVISIBLE
-            for p in self.parameters
-        }
+        return dict(zip(self.names, self.label_matrix(self._row(values))[0].tolist(), strict=True))
 
     def class_indices(self, values: Mapping[str, float]) -> dict[str, int]:
         """Nearest value class, or the existence class where invisible."""
-        full = self.full_values(values)
-        visible = self.visible(values)
-        return {
-            p.name: int(p.nearest_class(full[p.name])) if visible[p.name] else p.existence_class
-            for p in self.parameters
-        }
+        return dict(zip(self.names, self.class_matrix(self._row(values))[0].tolist(), strict=True))
+
+    def satisfies(self, values: Mapping[str, float]) -> bool:
+        return bool(self.constraint_mask(self._row(values))[0])
 
     def values_from_classes(self, indices: Mapping[str, int]) -> dict[str, float]:
         """Raw values of the recipe parameters; the existence class gives the default."""
         row = np.array([[indices[name] for name in self.names]], dtype=np.int64)
         return dict(zip(self.names, self.classes_to_values(row)[0].tolist(), strict=True))
 
-    def satisfies(self, values: Mapping[str, float]) -> bool:
-        full = self.full_values(values)
-        return all(bool(c.evaluate(full)) for c in self.constraints)
-
-    # -------------------------------------------------------- batches: (n, P) arrays, P = len(self)
+    # -------------------------------------------------------- batches: (n, P) arrays
 
     def columns(
         self, frame: pd.DataFrame | Mapping[str, np.ndarray]
     ) -> dict[str, np.ndarray | float]:
-        """Columns for `Expr.evaluate_array`: recipe parameters from `frame`, defaults for the rest."""
+        """Columns for `Expr.evaluate_array`: program parameters from `frame` where it has
+        them (every recipe parameter must be there), defaults for the rest."""
         missing = [name for name in self.names if name not in frame]
         if missing:
             raise UserError(f"recipe parameter {missing[0]!r}", "no column for it", "rerun the sample step")
-        given = {name: np.asarray(frame[name], dtype=np.float64) for name in self.names}
+        given = {n: np.asarray(frame[n], dtype=np.float64) for n in self.defaults if n in frame}
         return {**self.defaults, **given}
+
+    def _rows(self, frame) -> int:
+        return len(np.asarray(frame[self.names[0]]))
 
     def visibility_matrix(self, frame) -> np.ndarray:
         """(n, P) bool: is each recipe parameter visible in each row."""
-        columns = self.columns(frame)
-        n = len(columns[self.names[0]])
+        columns, n = self.columns(frame), self._rows(frame)
         out = np.ones((n, len(self)), dtype=bool)
         for j, p in enumerate(self.parameters):
             if p.visible_if is not None:
@@ -411,8 +504,7 @@ class Recipe:
 
     def constraint_mask(self, frame) -> np.ndarray:
         """(n,) bool: do all constraints hold in each row."""
-        columns = self.columns(frame)
-        n = len(columns[self.names[0]])
+        columns, n = self.columns(frame), self._rows(frame)
         ok = np.ones(n, dtype=bool)
         for constraint in self.constraints:
             ok &= np.broadcast_to(constraint.evaluate_array(columns).astype(bool), (n,))
@@ -422,48 +514,41 @@ class Recipe:
         """(n, P) float64 raw values of the recipe parameters, in recipe order."""
         return np.column_stack([np.asarray(frame[name], dtype=np.float64) for name in self.names])
 
+    def _normalised(self, values: np.ndarray) -> np.ndarray:
+        """Raw values (..., P) -> labels of visible shapes (..., P)."""
+        return np.stack([p.normalise(values[..., j]) for j, p in enumerate(self.parameters)], -1)
+
+    def _existence(self) -> np.ndarray:
+        """(P,) the existence class of each parameter (-1 where it has none)."""
+        return np.array([-1 if p.existence_class is None else p.existence_class
+                         for p in self.parameters], dtype=np.int64)
+
     def label_matrix(self, frame) -> np.ndarray:
         """(n, P) float64 normalised labels, -1 where invisible."""
-        values = self.value_matrix(frame)
-        labels = np.column_stack([p.normalise(values[:, j]) for j, p in enumerate(self.parameters)])
+        labels = self._normalised(self.value_matrix(frame))
         return np.where(self.visibility_matrix(frame), labels, INVISIBLE)
 
     def class_matrix(self, frame) -> np.ndarray:
         """(n, P) int64 class indices, the existence class where invisible."""
         values = self.value_matrix(frame)
-        visible = self.visibility_matrix(frame)
-        out = np.empty(values.shape, dtype=np.int64)
-        for j, p in enumerate(self.parameters):
-            nearest = p.nearest_class(values[:, j])
-            out[:, j] = (
-                nearest
-                if p.existence_class is None
-                else np.where(visible[:, j], nearest, p.existence_class)
-            )
-        return out
+        nearest = np.column_stack(
+            [p.nearest_class(values[:, j]) for j, p in enumerate(self.parameters)]
+        )
+        return np.where(self.visibility_matrix(frame), nearest, self._existence())
 
     def labels_to_classes(self, labels: np.ndarray) -> np.ndarray:
         """Normalised labels (n, P) or (P,) -> class indices of the same shape (int64)."""
         labels = np.asarray(labels, dtype=np.float64)
-        out = np.empty(labels.shape, dtype=np.int64)
-        for j, p in enumerate(self.parameters):
-            column = labels[..., j]
-            nearest = p.nearest_class(p.denormalise(column))
-            if p.has_existence:
-                nearest = np.where(column < -0.5, p.existence_class, nearest)
-            out[..., j] = nearest
-        return out
+        nearest = np.stack([p.nearest_class(p.denormalise(labels[..., j]))
+                            for j, p in enumerate(self.parameters)], -1)
+        hidden = (labels < -0.5) & (self._existence() >= 0)
+        return np.where(hidden, self._existence(), nearest).astype(np.int64)
 
     def classes_to_labels(self, classes: np.ndarray) -> np.ndarray:
         """Class indices (n, P) or (P,) -> normalised labels (-1 for the existence class)."""
         classes = self._check_classes(classes)
-        out = np.empty(classes.shape, dtype=np.float64)
-        for j, p in enumerate(self.parameters):
-            column = classes[..., j]
-            is_value = column < p.n_values
-            raw = p.classes[np.where(is_value, column, 0)]
-            out[..., j] = np.where(is_value, p.normalise(raw), INVISIBLE)
-        return out
+        labels = self._normalised(self.classes_to_values(classes))
+        return np.where(classes < self._n_values, labels, INVISIBLE)
 
     def classes_to_values(self, classes: np.ndarray) -> np.ndarray:
         """Class indices (n, P) or (P,) -> raw values; the existence class gives the default."""
@@ -493,131 +578,6 @@ class Recipe:
 
     def to_dict(self) -> dict:
         return {"parameters": self.describe(), "constraints": [str(c) for c in self.constraints]}
-
-
-# ---------------------------------------------------------------- validation of one entry
-
-
-def _recipe_parameter(
-    program: Parameter, entry, visible_if: Expr | None, source
-) -> RecipeParameter:
-    where = f"parameters.{program.name}"
-    if entry is None and program.kind == "bool":
-        entry = {}  # `flag:` alone learns both values
-    if not isinstance(entry, dict):
-        _fail(source, where, f"{entry!r} is not a mapping", "write {min: ..., max: ...}")
-    unknown = sorted(set(map(str, entry)) - ENTRY_KEYS)
-    if unknown:
-        _fail(
-            source, f"{where}.{unknown[0]}", "unknown key", "use min, max and (floats only) samples"
-        )
-    low = _bound(program, entry, "min", source)
-    high = _bound(program, entry, "max", source)
-    if low > high:
-        _fail(
-            source, f"{where}.min", f"{low:g} is greater than max {high:g}", "swap them or fix one"
-        )
-    samples = _samples(program, entry, source)
-    if program.kind == "float" and low == high:
-        _fail(
-            source,
-            f"{where}.max",
-            "equals min, so every class is the same value",
-            "widen the range, or drop the parameter to keep it at its default",
-        )
-    classes = make_classes(program.kind, low, high, samples)
-    return RecipeParameter(
-        program.name, program.kind, low, high, program.default, samples, classes, visible_if
-    )
-
-
-def _bound(program: Parameter, entry: dict, key: str, source) -> float:
-    where = f"parameters.{program.name}.{key}"
-    program_bound = program.min if key == "min" else program.max
-    if key not in entry:
-        if program.kind == "bool":
-            return program_bound
-        _fail(
-            source,
-            where,
-            "missing",
-            f"give it (the program allows [{program.min:g}, {program.max:g}])",
-        )
-    value = entry[key]
-    if isinstance(value, bool):
-        if program.kind != "bool":
-            _fail(
-                source,
-                where,
-                f"{value!r} is a bool, the parameter is {program.kind}",
-                "give a number",
-            )
-        value = int(value)
-    if not isinstance(value, (int, float)) or not np.isfinite(value):
-        _fail(source, where, f"{value!r} is not a finite number", "give a number")
-    if program.kind != "float" and value != round(value):
-        _fail(
-            source,
-            where,
-            f"{value!r} is not a whole number, the parameter is {program.kind}",
-            "give an integer",
-        )
-    tolerance = RANGE_TOLERANCE * max(1.0, abs(program.min), abs(program.max))
-    if value < program.min - tolerance or value > program.max + tolerance:
-        _fail(
-            source,
-            where,
-            f"{value:g} is outside the program's range [{program.min:g}, {program.max:g}]",
-            "a recipe may narrow the range, never widen it",
-        )
-    return float(min(max(value, program.min), program.max))
-
-
-def _samples(program: Parameter, entry: dict, source) -> int | None:
-    where = f"parameters.{program.name}.samples"
-    if program.kind != "float":
-        if "samples" in entry:
-            _fail(
-                source,
-                where,
-                f"given for a {program.kind} parameter",
-                "remove it: int and bool parameters have one class per value",
-            )
-        return None
-    if "samples" not in entry:
-        _fail(
-            source, where, "missing for a float parameter", "give the number of classes (2 or more)"
-        )
-    samples = entry["samples"]
-    if isinstance(samples, bool) or not isinstance(samples, int):
-        _fail(
-            source,
-            where,
-            f"{samples!r} is not an integer",
-            "give the number of classes (2 or more)",
-        )
-    if samples < 2:
-        _fail(
-            source, where, f"{samples} is below 2", "give 2 or more: the classes include both ends"
-        )
-    return samples
-
-
-def _constraints(entries, names: list[str], source) -> list[Expr]:
-    if entries is None:
-        return []
-    if not isinstance(entries, list):
-        _fail(source, "constraints", "not a list", 'write a list of strings such as - "a <= b"')
-    return [
-        _parse_rule(
-            text,
-            names,
-            source,
-            f"constraints[{i}]",
-            "use parameter names, numbers, + - * /, comparisons, and/or/not",
-        )
-        for i, text in enumerate(entries)
-    ]
 
 
 def _some(names: Iterable[str], limit: int = 8) -> str:
@@ -657,9 +617,9 @@ def manifest_path(cfg, domain: str) -> Path:
 
 
 def load_recipe(cfg) -> Recipe:
-    """The recipe of cfg.domain (`domain.recipe`, relative to the repository), checked against
-    the parameters in its program's manifest."""
-    from geocode.config import repo_root
+    """The recipe of cfg.domain (`<programs>/<domain>.yaml`), checked against the parameters
+    in its program's manifest."""
+    from geocode.config import recipe_path
 
     parameters, visibility = load_manifest(manifest_path(cfg, cfg.domain.name))
-    return Recipe.load(repo_root() / cfg.domain.recipe, parameters, visibility)
+    return Recipe.load(recipe_path(cfg.domain.name), parameters, visibility)

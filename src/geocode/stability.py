@@ -1,4 +1,4 @@
-"""Structural stability without a physics engine (SPEC §6): loose parts and a drop test.
+"""Structural stability without a physics engine (docs/paper-numbers.md#stability): loose parts and a drop test.
 
 A shape is stable when (a) it has no loose parts and (b) dropped onto the plane from 5% of
 its height it keeps its height (z-extent) and its centre-of-mass height within 2% of the
@@ -7,7 +7,6 @@ height after at most 5 s of simulated time. Shapes are z-up and read in metres.
 
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -15,6 +14,8 @@ import trimesh
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
+
+from geocode.timing import seconds_per_call
 
 # ---------------------------------------------------------------------------------------------
 # Loose parts
@@ -413,7 +414,7 @@ GRAVITY = 9.81  # m/s^2; shapes are read as metres (unit-sphere shapes are ~1-2 
 
 @dataclass(frozen=True)
 class DropConfig:
-    """Settings of the drop test (SPEC §6).
+    """Settings of the drop test (docs/paper-numbers.md#stability).
 
     The contact is a spring-damper per penetrating hull vertex, normalised by the number of
     such vertices (a contact patch: total normal stiffness k whatever the count, so a flat
@@ -629,7 +630,7 @@ def _drop(mesh: trimesh.Trimesh, cfg: DropConfig) -> dict:
 
 
 def drop_test(mesh: trimesh.Trimesh, cfg: DropConfig | None = None, tol: float = 1e-3) -> dict:
-    """Loose parts plus a drop onto the plane z = 0 (SPEC §6); z is up.
+    """Loose parts plus a drop onto the plane z = 0 (docs/paper-numbers.md#stability); z is up.
 
     The body starts at rest, as given, with its lowest point cfg.drop * height above the
     plane, and runs for cfg.duration s (or until settled). Height = z-extent of the shape
@@ -675,22 +676,12 @@ def bench_parts_mesh(seed: int = 0, detached: int = 0) -> trimesh.Trimesh:
     return trimesh.util.concatenate(parts)
 
 
-def _median_ms(fn, repeats: int) -> float:
-    fn()  # warm-up
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return float(np.median(times) * 1000)
-
-
 def bench_loose_parts(repeats: int = 20) -> dict[str, float]:
     """Milliseconds per loose_parts() on bench_parts_mesh, attached and with one tube loose."""
     attached, loose = bench_parts_mesh(), bench_parts_mesh(detached=1)
     return {
-        "attached_ms": _median_ms(lambda: loose_parts(attached), repeats),
-        "one_loose_ms": _median_ms(lambda: loose_parts(loose), repeats),
+        "attached_ms": seconds_per_call(lambda: loose_parts(attached), repeats) * 1000,
+        "one_loose_ms": seconds_per_call(lambda: loose_parts(loose), repeats) * 1000,
     }
 
 
@@ -703,6 +694,6 @@ def bench_drop_test(repeats: int = 5) -> dict[str, float]:
     tipped = vase.copy()
     tipped.apply_transform(trimesh.transformations.rotation_matrix(np.radians(45), (1, 0, 0)))
     return {
-        "standing_s": _median_ms(lambda: drop_test(vase), repeats) / 1000,
-        "falling_s": _median_ms(lambda: drop_test(tipped), repeats) / 1000,
+        "standing_s": seconds_per_call(lambda: drop_test(vase), repeats),
+        "falling_s": seconds_per_call(lambda: drop_test(tipped), repeats),
     }

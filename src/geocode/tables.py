@@ -1,4 +1,4 @@
-"""Per-sample metrics -> the paper's tables (SPEC §6) as CSV, Markdown and LaTeX, with the
+"""Per-sample metrics -> the paper's tables (docs/paper-numbers.md#tables) as CSV, Markdown and LaTeX, with the
 paper's values beside ours (no bpy, no torch).
 
 The metrics frame has one row per (domain, variant, condition, id) with the columns
@@ -19,7 +19,7 @@ from geocode.meshio import write_text
 
 DOMAIN_ORDER = ["chair", "vase", "table", "ceiling_lamp", "cabinet"]
 
-# The paper's values (SPEC §6), keyed by table, then by (row, column).
+# The paper's values (docs/paper-numbers.md#tables), keyed by table, then by (row, column).
 PAPER: dict[str, dict[tuple[str, str], float]] = {
     "pc_vs_sketch": {
         ("chair", "pc"): 0.00040, ("chair", "sketch"): 0.00106,

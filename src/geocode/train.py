@@ -1,4 +1,4 @@
-"""Training, checkpoints and batch prediction (SPEC §4).
+"""Training, checkpoints and batch prediction (docs/paper-numbers.md#training).
 
     train(cfg, out_dir=None) -> dict        # Lightning fit; resumes from <out>/checkpoints/last.ckpt
     load_model(checkpoint) -> GeoCodeModule  # eval mode, weights_only loading
@@ -103,6 +103,7 @@ def build_datamodule(cfg: DictConfig, recipe):
         num_workers=int(t.get("num_workers", 0)),
         augment=SketchAugment(**aug),
         eval_camera=t.get("eval_camera"),
+        seed=int(cfg.seed),
     )
 
 

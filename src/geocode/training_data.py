@@ -10,7 +10,6 @@ Sketch convention: float32 (1, H, W) in [0, 1], white background = 1, black stro
 
 from __future__ import annotations
 
-import hashlib
 from collections.abc import Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
@@ -24,6 +23,7 @@ from PIL import Image
 from torch.utils.data import DataLoader, Dataset
 
 from geocode.errors import UserError, one_line
+from geocode.seeds import generator, key_word
 
 IO_THREADS = 8  # file reads release the GIL (zlib, PNG decoding)
 
@@ -55,22 +55,16 @@ def _load_npz(path: Path) -> tuple[np.ndarray, np.ndarray]:
     return clouds["fps"].astype(np.float32), clouds["random"].astype(np.float32)
 
 
-def id_rng(shape_id: str, salt: str = "eval-cloud") -> np.random.Generator:
-    """A generator seeded by a stable hash of the shape id (same draw in every process)."""
-    digest = hashlib.sha256(f"{salt}:{shape_id}".encode()).digest()
-    return np.random.default_rng(int.from_bytes(digest[:8], "little"))
-
-
-def eval_pick(n_random: int, n_pick: int, shape_id: str) -> np.ndarray:
+def eval_pick(n_random: int, n_pick: int, seed: int, shape_id: str) -> np.ndarray:
     """The fixed evaluation choice of `n_pick` of a shape's random points (sorted indices)."""
-    return np.sort(id_rng(shape_id).permutation(n_random)[:n_pick])
+    return np.sort(generator(seed, "eval-cloud", shape_id).permutation(n_random)[:n_pick])
 
 
-def eval_cloud(clouds: Mapping[str, np.ndarray], n_random: int, shape_id: str) -> np.ndarray:
-    """The evaluation cloud: all FPS points + a fixed, id-seeded draw of `n_random` random
+def eval_cloud(clouds: Mapping[str, np.ndarray], n_random: int, seed: int, shape_id: str) -> np.ndarray:
+    """The evaluation cloud: all FPS points + a fixed draw, from (seed, id), of `n_random` random
     points. Shapes: fps (F, 3), random (R, 3) -> (F + n_random, 3) float32."""
     rand = np.asarray(clouds["random"], dtype=np.float32)
-    pick = eval_pick(len(rand), n_random, shape_id)
+    pick = eval_pick(len(rand), n_random, seed, shape_id)
     return np.concatenate([np.asarray(clouds["fps"], dtype=np.float32), rand[pick]])
 
 
@@ -143,7 +137,8 @@ class ShapeItems(Dataset):
     """Items of one split: {"points": (F + n_random, 3), "sketch": (1, H, W), "labels": (P,)}.
 
     Training: a fresh draw of n_random random points and a random camera of `cameras` per
-    item, plus sketch augmentation. Evaluation: the id-seeded draw (`eval_cloud`) and
+    item, plus sketch augmentation, from torch's generator (which `train` seeds with the
+    config's seed, workers included). Evaluation: the fixed draw of `eval_cloud` under `seed`,
     cameras[0], no augmentation.
     """
 
@@ -154,6 +149,7 @@ class ShapeItems(Dataset):
         cameras: Sequence[str],
         train: bool,
         augment: SketchAugment | None = None,
+        seed: int = 0,
     ) -> None:
         self.data = data
         self.n_random = n_random
@@ -162,7 +158,7 @@ class ShapeItems(Dataset):
         self.augment = augment if train else None
         if not train:
             total = data.random.shape[1]
-            self.picks = np.stack([eval_pick(total, n_random, i) for i in data.ids])  # (n, n_random)
+            self.picks = np.stack([eval_pick(total, n_random, seed, i) for i in data.ids])  # (n, n_random)
 
     def __len__(self) -> int:
         return len(self.data)
@@ -189,7 +185,8 @@ class GeoCodeDataModule(pl.LightningDataModule):
     """train / val items of one domain's dataset folder (<root>/<split>/...).
 
     `cameras`: the training cameras (a training item picks one at random); validation uses
-    `eval_camera` (default: the first training camera).
+    `eval_camera` (default: the first training camera). `seed` (the config's) fixes the
+    training order of every epoch and the validation draw of random points.
     """
 
     def __init__(
@@ -202,8 +199,10 @@ class GeoCodeDataModule(pl.LightningDataModule):
         num_workers: int = 0,
         augment: SketchAugment | None = None,
         eval_camera: str | None = None,
+        seed: int = 0,
     ) -> None:
         super().__init__()
+        self.seed = int(seed)
         self.root = Path(root)
         self.recipe = recipe
         self.cameras = list(cameras)
@@ -232,6 +231,7 @@ class GeoCodeDataModule(pl.LightningDataModule):
             items,
             batch_size=self.batch_size,
             shuffle=train,
+            generator=torch.Generator().manual_seed(key_word(self.seed, "train-order")),
             drop_last=train and len(items) > self.batch_size,  # no 1-item BatchNorm batches
             num_workers=self.num_workers,
             persistent_workers=self.num_workers > 0,
@@ -242,5 +242,6 @@ class GeoCodeDataModule(pl.LightningDataModule):
         return self._loader(items, True)
 
     def val_dataloader(self) -> DataLoader:
-        items = ShapeItems(self.split("val"), self.n_random, [self.eval_camera], False)
+        items = ShapeItems(self.split("val"), self.n_random, [self.eval_camera], False,
+                           seed=self.seed)
         return self._loader(items, False)

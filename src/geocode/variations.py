@@ -1,4 +1,4 @@
-"""Which shapes a dataset holds (SPEC §3): per-class variations, constraints, visibility,
+"""Which shapes a dataset holds (docs/paper-numbers.md#programs-and-datasets): per-class variations, constraints, visibility,
 dedup, seeds, and the sampling step that writes each split's recipes.parquet (no bpy).
 
 For every recipe parameter and every one of its value classes, N shapes per split: the other
@@ -34,6 +34,7 @@ from geocode.config import data_dir
 from geocode.errors import UserError
 from geocode.meshio import read_parquet, write_parquet
 from geocode.recipe import Recipe, load_recipe
+from geocode.seeds import key_word
 
 log = logging.getLogger("geocode.sample")
 
@@ -96,12 +97,6 @@ def sample_dataset(
 # ---------------------------------------------------------------- counter-based randomness
 
 
-def _stable_word(*parts) -> int:
-    """64-bit key from text, stable across processes (Python's hash() is salted)."""
-    text = "\x1f".join(map(str, parts)).encode()
-    return int.from_bytes(hashlib.blake2b(text, digest_size=8).digest(), "little")
-
-
 def _mix64(z: np.ndarray) -> np.ndarray:
     """SplitMix64's finaliser: a bijection on uint64 with full avalanche (wraps by design)."""
     z = (z ^ (z >> np.uint64(30))) * MIX_1
@@ -133,33 +128,18 @@ class _Plan:
 
 
 def _plan(recipe: Recipe, split: str, count: int, seed: int, domain: str) -> _Plan:
-    forced, forced_class, group_key = [], [], []
-    for j, parameter in enumerate(recipe.parameters):
-        for c in range(parameter.n_values):
-            entropy = [
-                seed,
-                _stable_word(domain),
-                _stable_word(split),
-                _stable_word(parameter.name),
-                c,
-            ]
-            key = np.random.SeedSequence(entropy).generate_state(1, np.uint64)[0]
-            forced.append(j)
-            forced_class.append(c)
-            group_key.append(key)
-    name_keys = np.array(
-        [[_stable_word(seed, "draw", p.name, k) for k in range(2)] for p in recipe.parameters],
-        dtype=np.uint64,
-    )
-    groups = len(forced)
+    groups = [(j, c) for j, p in enumerate(recipe.parameters) for c in range(p.n_values)]
+    forced, forced_class = np.array(groups, dtype=np.int64).reshape(-1, 2).T
+    group_key = [key_word(seed, domain, split, recipe.parameters[j].name, c) for j, c in groups]
+    name_keys = [[key_word(seed, "draw", p.name, k) for k in range(2)] for p in recipe.parameters]
     return _Plan(
         split=split,
         domain=domain,
-        forced=np.repeat(np.array(forced, dtype=np.int64), count),
-        forced_class=np.repeat(np.array(forced_class, dtype=np.int64), count),
-        index=np.tile(np.arange(count, dtype=np.int64), groups),
+        forced=np.repeat(forced, count),
+        forced_class=np.repeat(forced_class, count),
+        index=np.tile(np.arange(count, dtype=np.int64), len(groups)),
         group_key=np.repeat(np.array(group_key, dtype=np.uint64), count),
-        name_keys=name_keys,
+        name_keys=np.array(name_keys, dtype=np.uint64),
     )
 
 

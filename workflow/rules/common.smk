@@ -1,4 +1,4 @@
-# Config and helpers shared by every rule. Snakemake owns paths; Hydra owns everything else:
+# Config and helpers common to all rules. Snakemake owns paths; Hydra owns everything else:
 # each --config key=value is handed to every step as the same Hydra override.
 import os
 import shlex

@@ -4,12 +4,12 @@ from __future__ import annotations
 
 import logging
 import tempfile
-import time
 from collections.abc import Sequence
 from pathlib import Path
 
 from geocode import meshio
 from geocode.blender import export, sketch
+from geocode.timing import Stopwatch
 
 log = logging.getLogger(__name__)
 
@@ -24,12 +24,12 @@ def bench_sketch(shapes_dir: str | Path, ids: Sequence[str],
         first = meshio.read_obj(shapes_dir / f"{ids[0]}.obj")
         r.set_mesh(first.vertices, first.faces)
         r.render(cameras[0], Path(tmp) / "warm.png")
-        start = time.perf_counter()
-        for shape_id in ids:
-            mesh = meshio.read_obj(shapes_dir / f"{shape_id}.obj")
-            paths = {c.name: Path(tmp) / f"{shape_id}_{c.name}.png" for c in cameras}
-            sketch.sketch_mesh(mesh, paths, cameras, shape_id)
-        return len(ids) * len(cameras) / (time.perf_counter() - start)
+        with Stopwatch() as clock:
+            for shape_id in ids:
+                mesh = meshio.read_obj(shapes_dir / f"{shape_id}.obj")
+                paths = {c.name: Path(tmp) / f"{shape_id}_{c.name}.png" for c in cameras}
+                sketch.sketch_mesh(mesh, paths, cameras, shape_id)
+    return len(ids) * len(cameras) / clock.seconds
 
 
 def bench_dataset(domain: str, n: int = 12) -> dict[str, float]:
@@ -39,10 +39,10 @@ def bench_dataset(domain: str, n: int = 12) -> dict[str, float]:
     recipe = program.recipe()
     rows = export.random_rows(program, n)
     with tempfile.TemporaryDirectory() as tmp:
-        start = time.perf_counter()
-        for shape_id, values in rows:
-            export.export_shape(program, recipe, shape_id, values, Path(tmp))
-        export_rate = n / (time.perf_counter() - start)
+        with Stopwatch() as clock:
+            for shape_id, values in rows:
+                export.export_shape(program, recipe, shape_id, values, Path(tmp))
+        export_rate = n / clock.seconds
         sketch_rate = bench_sketch(tmp, [shape_id for shape_id, _ in rows])
     try:
         from geocode.points import bench_clouds

@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import logging
 import tempfile
-import time
 from collections.abc import Iterator, Mapping
 from pathlib import Path
 
@@ -15,8 +14,8 @@ import numpy as np
 import yaml
 
 from geocode import meshio
-from geocode.blender.progress import Progress
 from geocode.errors import UserError, one_line
+from geocode.timing import Progress, Stopwatch
 
 log = logging.getLogger(__name__)
 
@@ -121,9 +120,9 @@ def bench_export(domain: str, n: int = 20, program=None, recipe=None) -> float:
     recipe = recipe or program.recipe()
     rows = random_rows(program, n)
     with tempfile.TemporaryDirectory() as tmp:
-        start = time.perf_counter()
-        for shape_id, values in rows:
-            export_shape(program, recipe, shape_id, values, Path(tmp))
-        rate = n / (time.perf_counter() - start)
+        with Stopwatch() as clock:
+            for shape_id, values in rows:
+                export_shape(program, recipe, shape_id, values, Path(tmp))
+    rate = n / clock.seconds
     log.info("export %s: %.1f shapes/s over %d shapes", domain, rate, n)
     return rate

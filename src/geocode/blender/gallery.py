@@ -13,7 +13,14 @@ import numpy as np
 from PIL import Image, ImageDraw
 
 from geocode import meshio
-from geocode.blender.sketch import MARGIN, Camera, camera_location, render_still, set_mesh_data
+from geocode.blender.scene import (
+    MARGIN,
+    Camera,
+    RenderScene,
+    camera_location,
+    render_still,
+    set_mesh_data,
+)
 
 log = logging.getLogger(__name__)
 
@@ -25,38 +32,19 @@ PALETTE = np.array([
 VIEW = Camera("gallery", azimuth=35.0, elevation=25.0)
 
 
-class ShadedRenderer:
-    """A scene of its own (so it never disturbs a program's objects), reused between meshes."""
+class ShadedRenderer(RenderScene):
+    """A scene of its own (so it never disturbs a program's objects), reused between meshes:
+    a grey-lit white world, a sun, faces coloured by part label."""
 
     def __init__(self, size: int = 256, samples: int = 16):
-        import bpy
-
-        self.bpy = bpy
-        self.scene = bpy.data.scenes.new("geocode_gallery")
-        self._setup_render(size, samples)
-        self.mesh = bpy.data.meshes.new("geocode_gallery_shape")
-        obj = bpy.data.objects.new("geocode_gallery_shape", self.mesh)
-        self.scene.collection.objects.link(obj)
-        self.material = self._part_material()
-        self._setup_lights()
-        self._setup_camera()
-
-    def _setup_render(self, size: int, samples: int) -> None:
+        super().__init__("geocode_gallery", size, samples, strength=0.35)
         r = self.scene.render
-        r.engine = "CYCLES"
-        r.resolution_x = r.resolution_y = size
-        r.resolution_percentage = 100
-        r.use_compositing = r.use_sequencer = False
-        r.dither_intensity = 0.0
         r.film_transparent = True           # background composed onto white by Pillow
         r.image_settings.file_format, r.image_settings.color_mode = "PNG", "RGBA"
-        for name in dir(r):
-            if name.startswith("use_stamp"):
-                setattr(r, name, False)
-        c = self.scene.cycles
-        c.device, c.samples, c.use_denoising = "CPU", samples, False
-        c.max_bounces = 2
-        self.scene.view_settings.view_transform = "Standard"
+        self.scene.cycles.max_bounces = 2
+        self.material = self._part_material()
+        self._add_sun()
+        self.aim(VIEW)
 
     def _part_material(self):
         """Base colour from the per-face 'part_color' attribute."""
@@ -70,38 +58,13 @@ class ShadedRenderer:
         self.mesh.materials.append(mat)
         return mat
 
-    def _setup_lights(self) -> None:
-        bpy = self.bpy
-        sun = bpy.data.lights.new("geocode_gallery_sun", "SUN")
+    def _add_sun(self) -> None:
+        sun = self.bpy.data.lights.new("geocode_gallery_sun", "SUN")
         sun.energy, sun.angle = 2.0, math.radians(10)
-        obj = bpy.data.objects.new("geocode_gallery_sun", sun)
+        obj = self.bpy.data.objects.new("geocode_gallery_sun", sun)
         # From the upper left of the camera: top, front and side faces get distinct shades.
         obj.rotation_euler = (math.radians(50), 0.0, math.radians(-20))
         self.scene.collection.objects.link(obj)
-        world = bpy.data.worlds.new("geocode_gallery_world")
-        bg = next(n for n in world.node_tree.nodes if n.bl_idname == "ShaderNodeBackground")
-        bg.inputs["Color"].default_value = (1.0, 1.0, 1.0, 1.0)
-        bg.inputs["Strength"].default_value = 0.35
-        self.scene.world = world
-
-    def _setup_camera(self) -> None:
-        data = self.bpy.data.cameras.new("geocode_gallery_camera")
-        data.type, data.ortho_scale = "ORTHO", 2 * MARGIN
-        cam = self.bpy.data.objects.new("geocode_gallery_camera", data)
-        self.scene.collection.objects.link(cam)
-        self.scene.camera = cam
-        from mathutils import Vector
-
-        loc = Vector(camera_location(VIEW))
-        cam.location = loc
-        cam.rotation_mode = "QUATERNION"
-        cam.rotation_quaternion = (-loc).to_track_quat("-Z", "Y")
-
-    def alive(self) -> bool:
-        try:
-            return self.scene.name in self.bpy.data.scenes
-        except ReferenceError:
-            return False
 
     def set_mesh(self, mesh) -> None:
         set_mesh_data(self.mesh, mesh.vertices, mesh.faces)
@@ -154,6 +117,54 @@ def grid(images: list[Image.Image], captions: list[str], columns: int = 4) -> Im
         sheet.paste(img, (x, y))
         draw.text((x + 4, y + 4), caption, fill=(60, 60, 60))
     return sheet
+
+
+def points_png(points: np.ndarray, size: int = 256) -> Image.Image:
+    """A cloud on the unit sphere seen from the gallery's camera: dots, nearer ones darker."""
+    eye = np.array(camera_location(VIEW))
+    back = eye / np.linalg.norm(eye)                       # towards the camera
+    right = np.cross([0.0, 0.0, 1.0], back)
+    right /= np.linalg.norm(right)
+    up = np.cross(back, right)
+    pts = np.asarray(points, dtype=np.float64)
+    u = (pts @ right / (2 * MARGIN) + 0.5) * size
+    v = (0.5 - pts @ up / (2 * MARGIN)) * size
+    depth = pts @ back                                     # larger = nearer
+    img = Image.new("RGB", (size, size), "white")
+    draw = ImageDraw.Draw(img)
+    for i in np.argsort(depth):                            # far first, near on top
+        shade = int(170 - 130 * (depth[i] + 1) / 2)
+        draw.ellipse((u[i] - 1, v[i] - 1, u[i] + 1, v[i] + 1), fill=(shade, shade, shade + 30))
+    return img
+
+
+def render_preview(user_input, mesh, out_png: str | Path) -> Path:
+    """The input (a drawing or a cloud) beside the shaded result, in one PNG."""
+    size = shaded_renderer().scene.render.resolution_x
+    if user_input.kind == "sketch":
+        pixels = (user_input.data[0] * 255).astype(np.uint8)
+        left = Image.fromarray(pixels).convert("RGB").resize((size, size), Image.NEAREST)
+    else:
+        left = points_png(user_input.data, size)
+    with tempfile.TemporaryDirectory() as tmp:
+        shaded_renderer().render(mesh, Path(tmp) / "result.png")
+        right = on_white(Image.open(Path(tmp) / "result.png"))
+    with meshio.atomic_path(out_png) as tmp_png:
+        grid([left, right], ["input", "result"], columns=2).save(tmp_png, format="PNG")
+    return Path(out_png)
+
+
+def render_strip(meshes, out_png: str | Path) -> Path:
+    """One row of shaded pictures of `meshes`, in order (an interpolation sequence)."""
+    renderer = shaded_renderer()
+    images = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for i, mesh in enumerate(meshes):
+            renderer.render(mesh, Path(tmp) / f"{i}.png")
+            images.append(on_white(Image.open(Path(tmp) / f"{i}.png")))
+    with meshio.atomic_path(out_png) as tmp_png:
+        grid(images, [str(i) for i in range(len(meshes))], columns=len(meshes)).save(tmp_png, format="PNG")
+    return Path(out_png)
 
 
 def render_gallery(domain: str, out_png: str | Path, n: int = 16, seed: int = 0, program=None) -> Path:

@@ -1,18 +1,17 @@
 """Rebuild predicted shapes: parameter values -> program -> unit-sphere OBJ, batched in one
-process (SPEC §5: predicted labels are denormalised upstream; here they are raw values)."""
+process (docs/paper-numbers.md#evaluation: predicted labels are denormalised upstream; here they are raw values)."""
 
 from __future__ import annotations
 
 import logging
 import tempfile
-import time
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 
 from geocode import meshio
 from geocode.blender.export import load_program, random_rows, unit_mesh
-from geocode.blender.progress import Progress
 from geocode.errors import UserError, one_line
+from geocode.timing import Progress, Stopwatch
 
 log = logging.getLogger(__name__)
 
@@ -48,8 +47,8 @@ def bench_rebuild(domain: str, n: int = 20, program=None) -> float:
     program = program or load_program(domain)
     rows = random_rows(program, n, seed=1)
     with tempfile.TemporaryDirectory() as tmp:
-        start = time.perf_counter()
-        rebuild(domain, rows, tmp, program=program)
-        rate = n / (time.perf_counter() - start)
+        with Stopwatch() as clock:
+            rebuild(domain, rows, tmp, program=program)
+    rate = n / clock.seconds
     log.info("rebuild %s: %.1f shapes/s over %d shapes", domain, rate, n)
     return rate

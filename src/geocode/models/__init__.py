@@ -1,4 +1,4 @@
-"""Networks (SPEC §4): DGCNN and VGG encoders, per-parameter decoders, the LightningModule."""
+"""Networks (docs/paper-numbers.md#network): DGCNN and VGG encoders, per-parameter decoders, the LightningModule."""
 
 from geocode.models.dgcnn import (
     DGCNN,

@@ -1,8 +1,6 @@
-"""Throughput of the point encoders and single-sample inference latency (SPEC §4 targets)."""
+"""Throughput of the point encoders and single-sample inference latency (docs/paper-numbers.md#training)."""
 
 from __future__ import annotations
-
-import time
 
 import numpy as np
 import torch
@@ -10,16 +8,7 @@ import torch
 from geocode.errors import UserError
 from geocode.models.dgcnn import DGCNN, DGCNNReference
 from geocode.models.module import GeoCodeModule
-
-
-def _best_time(fn, repeats: int) -> float:
-    fn()  # warm-up
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - start)
-    return min(times)  # the least disturbed run on a shared machine
+from geocode.timing import Stopwatch, seconds_per_call
 
 
 def _train_step(model: torch.nn.Module, points: torch.Tensor):
@@ -31,14 +20,14 @@ def _train_step(model: torch.nn.Module, points: torch.Tensor):
 
 
 def surface_clouds(batch: int, n_points: int, seed: int = 0) -> torch.Tensor:
-    """Clouds as the dataset has them (SPEC §3: farthest points + random ones of a dense
+    """Clouds as the dataset has them (docs/paper-numbers.md#dataset-generation: farthest points + random ones of a dense
     surface sample), of a capsule, one sample per cloud. Shapes: -> (B, N, 3)."""
     import trimesh  # only the benchmark needs meshes
 
     from geocode.points import make_clouds
 
     mesh = trimesh.creation.capsule(height=1.2, radius=0.4)
-    fps = n_points * 15 // 23  # 1500 of 2300, as in SPEC §3
+    fps = n_points * 15 // 23  # 1500 of 2300, as in docs/paper-numbers.md#dataset-generation
     out = []
     for i in range(batch):
         cl = make_clouds(mesh, surface=30000, fps=fps, random=n_points - fps, rng=np.random.default_rng(seed + i))
@@ -50,24 +39,24 @@ def bench_train(batch: int = 33, n_points: int = 2300, repeats: int = 3, n_heads
     """Samples/s of forward+backward (train mode) of DGCNNReference and DGCNN on one batch
     of surface clouds, and eval-mode latency of the whole joint model for one point cloud
     and one sketch (inference_ms: the slower of the two), plus per-sample time of a batched
-    prediction. Times are the best of `repeats` runs (the least disturbed on a shared
+    prediction. Times are the best of `repeats` runs (the least disturbed on a busy
     machine)."""
     torch.manual_seed(seed)
     points = surface_clouds(batch, n_points, seed)  # (B, N, 3)
     ref = DGCNNReference().train()
     fast = DGCNN().train()
     fast.load_state_dict(ref.state_dict())
-    t_fast = _best_time(_train_step(fast, points), repeats)
-    t_ref = _best_time(_train_step(ref, points), max(1, repeats - 1))
+    t_fast = seconds_per_call(_train_step(fast, points), repeats, best=True)
+    t_ref = seconds_per_call(_train_step(ref, points), max(1, repeats - 1), best=True)
     heads = [{"name": f"p{i}", "n_classes": 5 + i % 3, "continuous": True, "existence": i % 4 == 0}
              for i in range(n_heads)]
     model = GeoCodeModule(heads).eval()
     one_cloud = points[:1]
     one_sketch = torch.rand(1, 1, 224, 224)
     with torch.inference_mode():
-        pc_s = _best_time(lambda: model.predict_classes(points=one_cloud), 30)
-        sk_s = _best_time(lambda: model.predict_classes(sketches=one_sketch), 30)
-        batch_s = _best_time(lambda: model.predict_classes(points=points), 2)
+        pc_s = seconds_per_call(lambda: model.predict_classes(points=one_cloud), 30, best=True)
+        sk_s = seconds_per_call(lambda: model.predict_classes(sketches=one_sketch), 30, best=True)
+        batch_s = seconds_per_call(lambda: model.predict_classes(points=points), 2, best=True)
     return {
         "reference_samples_per_s": batch / t_ref,
         "fast_samples_per_s": batch / t_fast,
@@ -108,11 +97,11 @@ def bench_epoch(clouds: int = 9330, sketches: int = 18660, batch: int = 33, devi
 
     step()  # warm-up (kernels, caches)
     _sync(dev)
-    start = time.perf_counter()
-    for _ in range(steps):
-        step()
-    _sync(dev)
-    seconds = time.perf_counter() - start
+    with Stopwatch() as clock:
+        for _ in range(steps):
+            step()
+        _sync(dev)
+    seconds = clock.seconds
     return {"epoch_s": seconds, "steps": steps, "clouds": steps * batch, "sketches": steps * per_step,
             "device": torch.cuda.get_device_name(dev) if dev.type == "cuda" else "cpu",
             "threads": torch.get_num_threads()}

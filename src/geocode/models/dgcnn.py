@@ -1,4 +1,4 @@
-"""DGCNN point-cloud encoder (SPEC §4): a plain reference and an exact, faster twin.
+"""DGCNN point-cloud encoder (docs/paper-numbers.md#network): a plain reference and an exact, faster twin.
 
 Both share one parameter layout (same `state_dict` keys and shapes), so weights move
 between them with `load_state_dict`.

@@ -1,4 +1,5 @@
-"""Per-parameter decoders and their losses (SPEC §4; the regression ablation, SPEC §6).
+"""Per-parameter decoders and their losses (docs/paper-numbers.md#network; the regression
+ablation, docs/paper-numbers.md#tables).
 
 A head spec is a plain dict (it travels in checkpoints):
   {"name": str, "n_classes": int, "continuous": bool, "existence": bool}

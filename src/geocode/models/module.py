@@ -1,7 +1,8 @@
-"""The GeoCode network as a LightningModule, with the paper's ablation variants (SPEC §4, §6).
+"""The GeoCode network as a LightningModule, with the paper's ablation variants
+(docs/paper-numbers.md#network and #tables).
 
 Variants:
-  joint       one point encoder, one sketch encoder, one set of decoders shared by both
+  joint       one point encoder, one sketch encoder, one set of decoders for both
   separate    the same encoders, a set of decoders per modality
   regression  continuous parameters regressed (value, existence) with MSE
   huang       Huang et al. 2017: a classification network for the discrete parameters and a
@@ -48,13 +49,13 @@ class Branch(nn.Module):
         dgcnn = DGCNN if fast else DGCNNReference
         self.points = dgcnn(k=k, channels=edge_channels, out_channels=point_channels)
         self.sketch = VGGSketchEncoder(sketch_channels, out_dim=2 * point_channels, pool_size=sketch_pool)
-        keys = MODALITIES if separate else ("shared",)
+        keys = MODALITIES if separate else ("common",)
         self.decoders = nn.ModuleDict(
             {key: Decoders(specs, 2 * point_channels, hidden, dropout, regression) for key in keys}
         )
 
     def decoder(self, modality: str) -> Decoders:
-        return self.decoders[modality if modality in self.decoders else "shared"]
+        return self.decoders[modality if modality in self.decoders else "common"]
 
     def forward(self, points=None, sketches=None) -> dict[str, dict[str, torch.Tensor]]:
         out = {}

@@ -1,4 +1,4 @@
-"""Reduced VGG11 sketch encoder (SPEC §4)."""
+"""Reduced VGG11 sketch encoder (docs/paper-numbers.md#network)."""
 
 from __future__ import annotations
 

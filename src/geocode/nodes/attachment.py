@@ -31,11 +31,10 @@ def sample_curve_array(g: Graph) -> None:
     count = g.input("Count", "int", default=3, min=0, max=1000)
     start = g.input("Start Margin", "float", default=0.0, min=0.0, max=1.0)
     end = g.input("End Margin", "float", default=0.0, min=0.0, max=1.0)
-    index = g.node("GeometryNodeInputIndex").out
     # i / (n - 1), and 0.5 when n == 1: the comparison adds 0.5 only for a single point
     single = g.compare("EQUAL", count, 1, data_type="INT")
-    fraction = g.div(g.add(index, g.mul(single, 0.5)), g.maximum(g.sub(count, 1), 1))
-    factor = g.lerp(start, g.sub(1.0, end), fraction)
+    fraction = (g.index() + single * 0.5) / g.max(count - 1, 1)
+    factor = g.lerp(start, 1.0 - end, fraction)
     sample = g.node("GeometryNodeSampleCurve", {"Curves": curve, "Factor": factor},
                     mode="FACTOR", use_all_curves=False)
     points = g.node("GeometryNodePoints", {"Count": count, "Position": sample["Position"]})

@@ -120,21 +120,17 @@ def handle(g: Graph) -> None:
     start = _sample_position(g, curve, start_factor)
     end = _sample_position(g, curve, end_factor)
     between = g.node("GeometryNodeTrimCurve", {
-        "Curve": curve, "Start": g.minimum(start_factor, end_factor),
-        "End": g.maximum(start_factor, end_factor),
+        "Curve": curve, "Start": g.min(start_factor, end_factor),
+        "End": g.max(start_factor, end_factor),
     }, mode="FACTOR")
-    widest = g.separate(g.node("GeometryNodeBoundBox", {"Geometry": between})["Max"])["X"]
-    out_x = g.add(widest, reach)
-    start_z, end_z = g.separate(start)["Z"], g.separate(end)["Z"]
+    out_x = g.bounding_box(between)["Max"].x + reach
     # the bulge's control heights: 0.3 / 0.7 of the way for a centred peak
-    low = g.lerp(start_z, end_z, g.mul(peak, 0.6))
-    high = g.lerp(start_z, end_z, g.add(0.4, g.mul(peak, 0.6)))
-    sunk = g.combine(g.mul(inset, -1.0), 0.0, 0.0)
-    bezier = bezier_segment(
-        g, start=g.vmath("ADD", start, sunk),
-        start_handle=g.combine(out_x, g.separate(start)["Y"], low),
-        end_handle=g.combine(out_x, g.separate(end)["Y"], high),
-        end=g.vmath("ADD", end, sunk), resolution=resolution)
+    low = g.lerp(start.z, end.z, peak * 0.6)
+    high = g.lerp(start.z, end.z, 0.4 + peak * 0.6)
+    sunk = g.vec(-inset, 0.0, 0.0)
+    bezier = bezier_segment(g, start=start + sunk, start_handle=g.vec(out_x, start.y, low),
+                            end_handle=g.vec(out_x, end.y, high), end=end + sunk,
+                            resolution=resolution)
     aligned = align_curve_to_start_point(g, curve=bezier["Curve"], point=start)
     g.output("Curve", "geometry", aligned["Curve"])
     g.output("Start Position", "vector", start)
@@ -150,14 +146,13 @@ def _sample_position(g: Graph, curve, factor):
 
 def _flat(g: Graph, vector):
     """(x, y, 0) of a vector."""
-    xyz = g.separate(vector)
-    return g.combine(xyz["X"], xyz["Y"], 0.0)
+    return g.vec(vector.x, vector.y, 0.0)
 
 
 def _vertical_end_offset(g: Graph, fixed, other, curvature):
     """QuadraticCartesian offset that puts the middle control point above/below `fixed`
     (curvature 1) or on the chord (curvature 0): the path then leaves `fixed` vertically."""
-    return g.vmath("SCALE", _flat(g, g.vmath("SUBTRACT", fixed, other)), g.mul(curvature, 0.5))
+    return _flat(g, fixed - other) * (curvature * 0.5)
 
 
 def _fixed_inputs(g: Graph, first: str, second: str, defaults):
@@ -196,12 +191,10 @@ def fixed_middle(g: Graph) -> None:
     ends vertical (an S-bend between two offset points), 0 gives the straight chord."""
     start, end, curvature, resolution = _fixed_inputs(g, "Start", "End",
                                                       ((0, 0, 0), (0.2, 0, 1)))
-    third = g.vmath("SCALE", g.vmath("SUBTRACT", end, start), 1.0 / 3.0)
-    rise = g.combine(0.0, 0.0, g.separate(third)["Z"])
-    start_handle = g.vmath("ADD", start, g.vmath("ADD", rise, g.vmath(
-        "SCALE", _flat(g, third), g.sub(1.0, curvature))))
-    end_handle = g.vmath("SUBTRACT", end, g.vmath("ADD", rise, g.vmath(
-        "SCALE", _flat(g, third), g.sub(1.0, curvature))))
+    third = (end - start) * (1.0 / 3.0)
+    rise = g.vec(0.0, 0.0, third.z)
+    start_handle = start + (rise + _flat(g, third) * (1.0 - curvature))
+    end_handle = end - (rise + _flat(g, third) * (1.0 - curvature))
     curve = bezier_segment(g, start=start, start_handle=start_handle, end_handle=end_handle,
                            end=end, resolution=resolution)
     g.output("Curve", "geometry", curve["Curve"])

@@ -13,7 +13,7 @@ from collections.abc import Callable
 
 import bpy
 
-from geocode.nodes.graph import Graph, Node, Value, find_socket
+from geocode.nodes.graph import Graph, Node, Socket, Value, find_socket
 
 _TAG = "geocode_block"
 
@@ -56,17 +56,17 @@ class NodeGroup:
                 raise TypeError(f"{self.name} has no input {name!r}; it has "
                                 f"{sorted(s.name for s in by_key.values())}")
             g.set(socket, value)
-        return _GroupNode(node.bl)
+        return _GroupNode(g, node.bl)
 
 
 class _GroupNode(Node):
     """Group instance whose outputs also match snake_case: `handle["start_position"]`."""
 
-    def __getitem__(self, key: str):
+    def __getitem__(self, key: str) -> Socket:
         for socket in self.bl.outputs:
             if socket.enabled and _key(socket.name) == _key(key):
-                return socket
-        return find_socket(self.bl.outputs, key, self.bl)
+                return Socket(self.g, socket)
+        return Socket(self.g, find_socket(self.bl.outputs, key, self.bl))
 
 
 def node_group(name: str) -> Callable[[Callable[[Graph], None]], NodeGroup]:

@@ -1,5 +1,5 @@
 """Meshes: ready-made triplets (path curve + RectangleFillet profile + style -> mesh), the
-parts that furniture programs are assembled from (SPEC §1 catalogue, "meshes").
+parts that furniture programs are assembled from (docs/paper-numbers.md#building-blocks, "meshes").
 
 Profiles are given in absolute sizes (`Width` along the profile's X, `Depth` along its Y),
 so styles scale by 1 at rest. Every block labels its faces with `Part` and, where other
@@ -13,10 +13,15 @@ import math
 from geocode.nodes.curves import fixed_bottom, fixed_top, quadratic_cartesian, quadratic_polar
 from geocode.nodes.graph import Graph
 from geocode.nodes.group import node_group
-from geocode.nodes.profiles import rectangle_fillet
-from geocode.nodes.styles import aligned_bevel_xy, middle_expand_contract, rail, seat_frame
-from geocode.nodes.styles import cushion as cushion_style
-from geocode.nodes.styles import leg as leg_style
+from geocode.nodes.profiles import corner_radius, rectangle_fillet
+from geocode.nodes.styles import (
+    aligned_bevel_xy,
+    cushion_style,
+    leg_style,
+    middle_expand_contract,
+    rail,
+    seat_frame,
+)
 from geocode.nodes.utils import align_curve_tilt_to_axis
 
 # fillet points per profile corner: small parts need few, the seat is seen up close
@@ -24,20 +29,11 @@ THIN_RESOLUTION = 2
 SEAT_RESOLUTION = 6
 # the rectangle's corner moves in by r (1 - 1/sqrt 2) when rounded with radius r
 _CORNER_INSET = 1.0 - 1.0 / math.sqrt(2.0)
-# the fillet radius of RectangleFillet never leaves this range (see profiles.py)
-_ROUNDNESS_RANGE = (1e-3, 0.995)
-
-
-def _line(g: Graph, start, end, points: int):
-    """Straight path with `points` evenly spaced points."""
-    line = g.node("GeometryNodeCurvePrimitiveLine", {"Start": start, "End": end})
-    return g.node("GeometryNodeResampleCurve", {"Curve": line, "Mode": "Count",
-                                                "Count": points}).out
 
 
 def _vertical_path(g: Graph, bottom, top, points: int):
     """Vertical path on the Z axis from z=bottom to z=top, the profile's X on world X."""
-    path = _line(g, g.combine(0.0, 0.0, bottom), g.combine(0.0, 0.0, top), points)
+    path = g.line(g.vec(0.0, 0.0, bottom), g.vec(0.0, 0.0, top), count=points)
     return align_curve_tilt_to_axis(g, curve=path, axis=(1.0, 0.0, 0.0))["Curve"]
 
 
@@ -47,7 +43,7 @@ def _profile(g: Graph, width, depth, roundness, resolution=THIN_RESOLUTION):
 
 
 def _frame_inputs(g: Graph):
-    """Profile and style inputs shared by the frame meshes."""
+    """Profile and style inputs common to the frame meshes."""
     width = g.input("Width", "float", default=0.04, min=0.0)
     depth = g.input("Depth", "float", default=0.04, min=0.0)
     roundness = g.input("Roundness", "float", default=0.0, min=0.0, max=1.0)
@@ -79,20 +75,17 @@ def seat(g: Graph) -> None:
     thickness = g.input("Thickness", "float", default=0.05, min=0.0)
     bevel = g.input("Bevel", "float", default=0.05, min=0.0, max=0.5)
     part = g.input("Part", "int", default=0, min=0)
-    path = _vertical_path(g, g.sub(top, thickness), top, 7)
+    path = _vertical_path(g, top - thickness, top, 7)
     profile = _profile(g, width, depth, roundness, SEAT_RESOLUTION)
     mesh = seat_frame(g, curve=path, profile_curve=profile, bevel=bevel, fill_caps=True,
                       part=part)["Mesh"]
     g.output("Mesh", "geometry", mesh)
-    clamped = g.node("ShaderNodeClamp", {"Value": roundness, "Min": _ROUNDNESS_RANGE[0],
-                                         "Max": _ROUNDNESS_RANGE[1]}).out
-    inset = g.mul(g.mul(clamped, g.mul(g.minimum(width, depth), 0.5)), _CORNER_INSET)
-    g.output("Corner", "vector", g.combine(g.sub(g.mul(width, 0.5), inset),
-                                           g.sub(g.mul(depth, 0.5), inset), 0.0))
+    inset = corner_radius(g, roundness, width, depth) * _CORNER_INSET
+    g.output("Corner", "vector", g.vec(width * 0.5 - inset, depth * 0.5 - inset, 0.0))
 
 
 @node_group("MeshCushion")
-def cushion(g: Graph) -> None:
+def cushion_mesh(g: Graph) -> None:
     """A pillow on a seat: the seat's outline (`Width`, `Depth`, `Roundness`) swept up from
     `Bottom` by `Thickness` with StyleCushion (`Fill`: dome to full pillow)."""
     width = g.input("Width", "float", default=0.5, min=0.0)
@@ -102,7 +95,7 @@ def cushion(g: Graph) -> None:
     thickness = g.input("Thickness", "float", default=0.05, min=0.0)
     fill = g.input("Fill", "float", default=0.5, min=0.0, max=1.0)
     part = g.input("Part", "int", default=0, min=0)
-    path = _vertical_path(g, bottom, g.add(bottom, thickness), 8)
+    path = _vertical_path(g, bottom, bottom + thickness, 8)
     profile = _profile(g, width, depth, roundness, SEAT_RESOLUTION)
     mesh = cushion_style(g, curve=path, profile_curve=profile, fill=fill, fill_caps=True,
                          part=part)["Mesh"]
@@ -110,7 +103,7 @@ def cushion(g: Graph) -> None:
 
 
 @node_group("MeshLeg")
-def leg(g: Graph) -> None:
+def leg_mesh(g: Graph) -> None:
     """A leg hanging from `Top` to `Bottom` on a CurveFixedTop (`Curvature` 1: vertical
     under the seat, bending out towards the foot), StyleLeg from `Top Radius` to
     `Bottom Radius`, a square-to-round profile (`Roundness`) with its X on world X."""
@@ -136,7 +129,7 @@ def straight_frame(g: Graph) -> None:
     start = g.input("Start", "vector", default=(0, 0, 0))
     end = g.input("End", "vector", default=(0, 0, 1))
     inputs = _frame_inputs(g)
-    curve = _line(g, start, end, 4)
+    curve = g.line(start, end, count=4)
     g.output("Mesh", "geometry", _frame_mesh(g, curve, inputs))
     g.output("Curve", "geometry", curve)
 
@@ -203,8 +196,7 @@ def quadratic_cartesian_mesh(g: Graph) -> None:
 
 
 def _bar_along_x(g: Graph, half_length, points: int):
-    return _line(g, g.combine(g.mul(half_length, -1.0), 0.0, 0.0),
-                 g.combine(half_length, 0.0, 0.0), points)
+    return g.line(g.vec(-half_length, 0.0, 0.0), g.vec(half_length, 0.0, 0.0), count=points)
 
 
 @node_group("MeshTopRail")
@@ -221,9 +213,8 @@ def top_rail(g: Graph) -> None:
     roundness = g.input("Roundness", "float", default=0.0, min=0.0, max=1.0)
     fill = g.input("Fill", "float", default=0.0, min=0.0, max=1.0)
     part = g.input("Part", "int", default=0, min=0)
-    centre = g.separate(center)
     bar = g.transform(_bar_along_x(g, half_length, 9),
-                      translation=g.combine(0.0, centre["Y"], centre["Z"]))
+                      translation=g.vec(0.0, center.y, center.z))
     aligned = align_curve_tilt_to_axis(g, curve=bar, axis=tangent)["Curve"]
     mesh = middle_expand_contract(g, curve=aligned,
                                   profile_curve=_profile(g, size, depth, roundness),
@@ -247,12 +238,9 @@ def cross_rail(g: Graph) -> None:
                                    axis=(0.0, 0.0, 1.0))["Curve"]
     one = rail(g, curve=bar, profile_curve=_profile(g, thickness_z, thickness_y, roundness),
                radius=1.0, fill_caps=True, part=part)["Mesh"]
-    centred = g.node("GeometryNodeSetPosition", {
-        "Geometry": points, "Position": g.vmath("MULTIPLY", g.position(), (0.0, 1.0, 1.0))})
+    centred = g.set_position(points, position=g.position() * (0.0, 1.0, 1.0))
     tangent = g.node("GeometryNodeInputNamedAttribute", {"Name": "tangent"},
                      data_type="FLOAT_VECTOR")["Attribute"]
     turn = g.node("FunctionNodeAlignRotationToVector", {"Vector": tangent},
                   axis="Z", pivot_axis="X").out
-    rails = g.node("GeometryNodeInstanceOnPoints", {
-        "Points": centred, "Instance": one, "Rotation": turn})
-    g.output("Mesh", "geometry", g.node("GeometryNodeRealizeInstances", {"Geometry": rails}))
+    g.output("Mesh", "geometry", g.instance_on_points(centred, one, Rotation=turn))

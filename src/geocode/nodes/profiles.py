@@ -5,11 +5,17 @@ from __future__ import annotations
 from geocode.nodes.graph import Graph
 from geocode.nodes.group import node_group
 
-# The fillet never reaches exactly half the side: coincident points would make
-# zero-area faces in every sweep that uses the profile.
-_MAX_ROUNDNESS = 0.995
-# ... nor exactly zero: a zero radius drops the fillet points and changes the topology.
-_MIN_ROUNDNESS = 1e-3
+# Roundness is clamped to this range: a fillet of exactly half the side would make coincident
+# points (zero-area faces in every sweep of the profile), and a zero radius drops the fillet
+# points and changes the topology.
+ROUNDNESS_LIMITS = (1e-3, 0.995)
+
+
+def corner_radius(g: Graph, roundness, width, height):
+    """The fillet radius of a `width` x `height` rectangle's corners at `roundness` (clamped to
+    ROUNDNESS_LIMITS): `roundness` times half the shorter side."""
+    low, high = ROUNDNESS_LIMITS
+    return g.clamp(roundness, low, high) * (g.min(width, height) * 0.5)
 
 
 @node_group("ProfileRectangleFillet")
@@ -26,9 +32,7 @@ def rectangle_fillet(g: Graph) -> None:
     resolution = g.input("Resolution", "int", default=6, min=1, max=64)
     rectangle = g.node("GeometryNodeCurvePrimitiveQuadrilateral",
                        {"Width": width, "Height": height}, mode="RECTANGLE")
-    clamped = g.node("ShaderNodeClamp", {"Value": roundness, "Min": _MIN_ROUNDNESS,
-                                         "Max": _MAX_ROUNDNESS}).out
-    radius = g.mul(clamped, g.mul(g.minimum(width, height), 0.5))
+    radius = corner_radius(g, roundness, width, height)
     fillet = g.node("GeometryNodeFilletCurve", {
         "Curve": rectangle, "Radius": radius, "Limit Radius": True, "Mode": "Poly",
         "Count": resolution,

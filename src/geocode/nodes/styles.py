@@ -55,7 +55,7 @@ def rail(g: Graph) -> None:
 
 
 @node_group("StyleLeg")
-def leg(g: Graph) -> None:
+def leg_style(g: Graph) -> None:
     """A leg: the scale eases from `Top Radius` at the path's start to `Bottom Radius` at
     its end along a fixed float curve (slow at the top, a flare near the foot)."""
     curve, profile, fill_caps, part = _triplet_inputs(g)
@@ -75,8 +75,8 @@ def middle_expand_contract(g: Graph) -> None:
     curve, profile, fill_caps, part = _triplet_inputs(g)
     radius = g.input("Radius", "float", default=0.05, min=0.0)
     amount = g.input("Amount", "float", default=0.5, min=-0.95, max=4.0)
-    bump = g.math("SINE", g.mul(g.spline_factor(), math.pi))
-    scale = g.mul(radius, g.add(1.0, g.mul(amount, bump)))
+    bump = g.sin(g.spline_factor() * math.pi)
+    scale = radius * (1.0 + amount * bump)
     g.output("Mesh", "geometry", _sweep(g, curve, profile, scale, fill_caps, part))
 
 
@@ -114,22 +114,22 @@ def seat_frame(g: Graph) -> None:
     path, a quarter-round edge of depth `Bevel` (share of the profile) at both ends."""
     curve, profile, fill_caps, part = _triplet_inputs(g)
     bevel = g.input("Bevel", "float", default=0.05, min=0.0, max=0.5)
-    u = g.math("ABSOLUTE", g.sub(g.mul(g.spline_factor(), 2.0), 1.0))
-    rounded = g.sub(1.0, g.math("SQRT", g.maximum(g.sub(1.0, g.mul(u, u)), 0.0)))
-    scale = g.sub(1.0, g.mul(bevel, rounded))
+    u = abs(g.spline_factor() * 2.0 - 1.0)
+    rounded = 1.0 - g.sqrt(g.max(1.0 - u * u, 0.0))
+    scale = 1.0 - bevel * rounded
     g.output("Mesh", "geometry", _sweep(g, curve, profile, scale, fill_caps, part))
 
 
 @node_group("StyleCushion")
-def cushion(g: Graph) -> None:
+def cushion_style(g: Graph) -> None:
     """Scale max(sqrt(1 - t^k), 0.35), k = 2 + 8 Fill, along a path that rises from the
     cushion's bottom: a flat base whose sides puff in towards the top; `Fill` 0 gives a
     dome, 1 a full pillow with rounded top edges."""
     curve, profile, fill_caps, part = _triplet_inputs(g)
     fill = g.input("Fill", "float", default=0.5, min=0.0, max=1.0)
-    power = g.math("POWER", g.spline_factor(), g.add(2.0, g.mul(fill, 8.0)))
-    puff = g.math("SQRT", g.maximum(g.sub(1.0, power), 0.0))
-    scale = g.maximum(puff, _CUSHION_TOP)
+    power = g.math("POWER", g.spline_factor(), 2.0 + fill * 8.0)
+    puff = g.sqrt(g.max(1.0 - power, 0.0))
+    scale = g.max(puff, _CUSHION_TOP)
     g.output("Mesh", "geometry", _sweep(g, curve, profile, scale, fill_caps, part))
 
 
@@ -145,7 +145,7 @@ def aligned_bevel_xy(g: Graph) -> None:
     aligned = align_curve_tilt_to_axis(g, curve=curve, axis=axis)["Curve"]
     ramp = g.map_range(g.spline_factor(), 1.0 - _BEVEL_SPAN, 1.0, 0.0, 1.0,
                        interpolation="SMOOTHSTEP")
-    scale = g.mul(radius, g.sub(1.0, g.mul(bevel, ramp)))
+    scale = radius * (1.0 - bevel * ramp)
     g.output("Mesh", "geometry", _sweep(g, aligned, profile, scale, fill_caps, part))
 
 
@@ -158,10 +158,9 @@ def bezier_segment_style(g: Graph) -> None:
               for name, default in (("Start", 0.05), ("Start Handle", 0.05),
                                     ("End Handle", 0.1), ("End", 0.2))]
     t = g.spline_factor()
-    s = g.sub(1.0, t)
-    weights = (g.mul(g.mul(s, s), s), g.mul(3.0, g.mul(g.mul(s, s), t)),
-               g.mul(3.0, g.mul(g.mul(s, t), t)), g.mul(g.mul(t, t), t))
+    s = 1.0 - t
+    weights = (s * s * s, 3.0 * (s * s * t), 3.0 * (s * t * t), t * t * t)
     scale = 0.0
     for weight, value in zip(weights, values, strict=True):
-        scale = g.add(scale, g.mul(weight, value))
+        scale = scale + weight * value
     g.output("Mesh", "geometry", _sweep(g, curve, profile, scale, fill_caps, part))

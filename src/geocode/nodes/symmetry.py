@@ -17,17 +17,12 @@ def radial(g: Graph) -> None:
     count = g.input("Count", "int", default=4, min=0, max=64)
     radius = g.input("Radius", "float", default=0.0, min=0.0)
     start_angle = g.input("Start Angle", "float", default=0.0)
-    index = g.node("GeometryNodeInputIndex").out
-    angle = g.add(start_angle, g.mul(index, g.div(2 * math.pi, g.maximum(count, 1))))
-    position = g.combine(g.mul(radius, g.math("COSINE", angle)),
-                         g.mul(radius, g.math("SINE", angle)), 0.0)
+    angle = start_angle + g.index() * (2 * math.pi / g.max(count, 1))
+    position = g.vec(radius * g.cos(angle), radius * g.sin(angle), 0.0)
     points = g.node("GeometryNodePoints", {"Count": count, "Position": position})
-    instances = g.node("GeometryNodeInstanceOnPoints", {
-        "Points": points, "Instance": geometry,
-        "Rotation": g.euler_to_rotation(g.combine(0.0, 0.0, angle)),
-    })
-    g.output("Geometry", "geometry", g.node("GeometryNodeRealizeInstances",
-                                            {"Geometry": instances}))
+    copies = g.instance_on_points(points, geometry,
+                                  Rotation=g.euler_to_rotation(g.vec(0.0, 0.0, angle)))
+    g.output("Geometry", "geometry", copies)
 
 
 @node_group("SymmetryMirror")

@@ -20,8 +20,7 @@ def align_curve_to_start_point(g: Graph) -> None:
                    mode="FACTOR", use_all_curves=False)["Position"]
     last = g.node("GeometryNodeSampleCurve", {"Curves": curve, "Factor": 1.0},
                   mode="FACTOR", use_all_curves=False)["Position"]
-    backwards = g.compare("LESS_THAN", g.vmath("DISTANCE", last, point),
-                          g.vmath("DISTANCE", first, point), data_type="FLOAT")
+    backwards = g.distance(last, point) < g.distance(first, point)
     reversed_curve = g.node("GeometryNodeReverseCurve", {"Curve": curve,
                                                           "Selection": backwards})
     g.output("Curve", "geometry", reversed_curve)
@@ -34,9 +33,9 @@ def align_curve_tilt_to_axis(g: Graph) -> None:
     following Blender's minimum-twist frame."""
     curve = g.input("Curve", "geometry")
     axis = g.input("Axis", "vector", default=(1, 0, 0))
-    tangent = g.node("GeometryNodeInputTangent").out
-    along = g.vmath("SCALE", tangent, g.vmath("DOT_PRODUCT", axis, tangent))
-    normal = g.vmath("NORMALIZE", g.vmath("SUBTRACT", axis, along))
+    tangent = g.tangent()
+    along = tangent * g.dot(axis, tangent)
+    normal = g.normalize(axis - along)
     oriented = g.node("GeometryNodeSetCurveNormal", {
         "Curve": curve, "Mode": "Free", "Normal": normal,
     })

@@ -1,4 +1,4 @@
-"""Infer parameter visibility from a node graph (SPEC §2).
+"""Infer parameter visibility from a node graph (docs/paper-numbers.md#labels).
 
 A group input is visible where some path from it to the group output is live. A path is
 live when every Switch / Index Switch / Menu Switch it passes through through a *data*
@@ -79,7 +79,7 @@ class _Walker:
         self._memo: dict[tuple, DNF] = {}
 
     def _memoised(self, socket, context: tuple, compute) -> DNF:
-        """Each (socket, group context) is walked once: shared subgraphs stay linear."""
+        """Each (socket, group context) is walked once: subgraphs used by several paths stay linear."""
         key = (_socket_key(socket), tuple((n.id_data.name, n.name) for n in context))
         if key not in self._memo:
             self._memo[key] = compute(socket, context)

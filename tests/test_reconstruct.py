@@ -1,0 +1,173 @@
+"""`geocode reconstruct` and the fit, on small files made here; the model is an untrained
+network of the real architecture (its prediction is arbitrary, the plumbing is real)."""
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+import trimesh
+import yaml
+from PIL import Image, ImageDraw
+from scipy import ndimage
+
+pytest.importorskip("bpy")
+
+from geocode.cli import main  # noqa: E402
+from geocode.fit import CloudDistance, fit  # noqa: E402
+from geocode.meshio import normalise_unit_sphere  # noqa: E402
+from geocode.points import sample_surface  # noqa: E402
+from geocode.program import Program  # noqa: E402
+from geocode.reconstruct import SKETCH_EXTENT, sketch_from_image  # noqa: E402
+
+pytestmark = pytest.mark.blender
+SHAPE = {"body_height": 1.2, "handle_count": 2, "belly_width": 0.6}
+
+
+def untrained_checkpoint(path, domain):
+    import torch
+
+    from geocode.models import GeoCodeModule
+    from geocode.models.heads import head_specs
+
+    torch.manual_seed(0)
+    model = GeoCodeModule(heads=head_specs(Program.load(domain).recipe()))
+    torch.save({"state_dict": model.state_dict(), "hyper_parameters": dict(model.hparams)}, path)
+    return path
+
+
+@pytest.fixture(scope="module")
+def files(tmp_path_factory):
+    """A vase as every input kind, and checkpoints."""
+    root = tmp_path_factory.mktemp("inputs")
+    mesh = Program.load("vase").evaluate(SHAPE)
+    plain = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False)
+    for suffix in ("obj", "ply", "stl"):
+        plain.export(root / f"vase.{suffix}")
+    y_up = plain.copy()
+    y_up.vertices = np.stack([plain.vertices[:, 0], plain.vertices[:, 2], -plain.vertices[:, 1]], 1)
+    y_up.export(root / "vase.glb")
+    cloud = sample_surface(plain, 3000, np.random.default_rng(1))
+    np.save(root / "cloud.npy", cloud)
+    np.savetxt(root / "cloud.xyz", cloud)
+    trimesh.PointCloud(cloud).export(root / "cloud.ply")
+    drawing = Image.new("RGB", (900, 600), "white")
+    ImageDraw.Draw(drawing).ellipse((250, 60, 650, 540), outline="black", width=14)
+    drawing.save(root / "drawing.jpg")
+    return {"root": root, "ckpt": untrained_checkpoint(root / "vase.ckpt", "vase")}
+
+
+@pytest.mark.parametrize("name", ["vase.obj", "vase.ply", "vase.stl", "vase.glb", "cloud.npy",
+                                  "cloud.xyz", "cloud.ply", "drawing.jpg"])
+def test_every_input_kind_gives_values_mesh_preview_and_blend(files, tmp_path, capsys, name):
+    refine = ["--refine", "0"] if name.endswith(".jpg") else ["--refine", "6"]
+    code = main(["reconstruct", "vase", str(files["root"] / name), "-o", str(tmp_path),
+                 "--checkpoint", str(files["ckpt"]), "--json", *refine])
+    assert code == 0
+    summary = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    stem = name.split(".")[0]
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(
+        f"{stem}{s}" for s in (".yaml", ".obj", ".png", ".blend"))
+    values = yaml.safe_load((tmp_path / f"{stem}.yaml").read_text())
+    assert set(values) == {p.name for p in Program.load("vase").parameters}
+    if not name.endswith(".jpg"):
+        assert summary["kind"] == "points" and summary["evaluations"] == 6
+        assert summary["chamfer_after"] <= summary["chamfer_before"]
+
+
+def test_glb_is_read_y_up(files):
+    from geocode.config import compose
+    from geocode.reconstruct import read_input
+
+    cfg = compose(["domain=vase"])
+    glb = read_input(files["root"] / "vase.glb", None, cfg.data.points).data
+    obj = read_input(files["root"] / "vase.obj", None, cfg.data.points).data
+    assert np.allclose(glb.min(0), obj.min(0), atol=0.05) and np.allclose(glb.max(0), obj.max(0), atol=0.05)
+
+
+def test_drawing_is_brought_to_the_sketch_format(files):
+    sketch = sketch_from_image(files["root"] / "drawing.jpg")
+    assert sketch.shape == (1, 224, 224) and set(np.unique(sketch)) <= {0.0, 1.0}
+    ink = sketch[0] == 0
+    ys, xs = np.nonzero(ink)
+    assert abs(max(ys.ptp(), xs.ptp()) + 1 - SKETCH_EXTENT) <= 6   # thinning eats the rim
+    width = 2 * np.percentile(ndimage.distance_transform_edt(ink)[ink], 90)
+    assert width <= 3   # 14 px strokes thinned to the sketches' ~2 px
+
+
+def test_fit_never_increases_the_distance_and_stays_in_range(files):
+    vase = Program.load("vase")
+    recipe = vase.recipe()
+    target = vase.evaluate(SHAPE)
+    cloud = sample_surface(normalise_unit_sphere(target), 2000, np.random.default_rng(3))
+    start = {p.name: p.default for p in vase.parameters}
+    options = {"handle_count": [0.0, 2.0, 4.0]}
+    result = fit(vase, recipe, start, options, cloud, budget=40, seed=0)
+    assert result.evaluations == 40
+    assert result.after <= result.before
+    assert result.after == pytest.approx(CloudDistance(cloud)(vase.evaluate(result.values)))
+    for p in recipe.parameters:
+        assert p.min <= result.values[p.name] <= p.max
+    assert result.values["handle_count"] in options["handle_count"]
+
+
+BAD = [
+    ("empty.obj", b"", "the file is empty"),
+    ("broken.npy", b"not numpy", "not a readable .npy"),
+    ("nan.xyz", b"".join(b"%f %f %f\n" % (i, i, i) for i in range(200)) + b"nan 0 0\n", "NaN"),
+    ("few.xyz", b"".join(b"%d 0 %d\n" % (i, i % 7) for i in range(50)), "give at least 100"),
+    ("shape.fbx", b"x", "unknown input kind .fbx"),
+]
+
+
+@pytest.mark.parametrize("name,content,message", BAD)
+def test_bad_input_gives_one_line_and_writes_nothing(files, tmp_path, capsys, name, content, message):
+    path = tmp_path / name
+    path.write_bytes(content)
+    out = tmp_path / "out"
+    assert main(["reconstruct", "vase", str(path), "-o", str(out), "--checkpoint", str(files["ckpt"])]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and name in err and message in err
+    assert not out.exists()
+
+
+def test_blank_image_missing_and_foreign_checkpoints_are_refused(files, tmp_path, capsys):
+    blank = tmp_path / "blank.png"
+    Image.new("L", (300, 300), 255).save(blank)
+    out = tmp_path / "out"
+    chair_ckpt = untrained_checkpoint(tmp_path / "chair.ckpt", "chair")
+    cases = [
+        ([str(blank), "--checkpoint", str(files["ckpt"])], "blank"),
+        ([str(files["root"] / "vase.obj"), "--checkpoint", str(tmp_path / "none.ckpt")], "no trained vase model"),
+        ([str(files["root"] / "vase.obj"), "--checkpoint", str(chair_ckpt)], "other parameters"),
+        ([str(files["root"] / "vase.obj"), f"paths.runs={tmp_path / 'runs'}"], "no trained vase model"),
+    ]
+    for args, message in cases:
+        assert main(["reconstruct", "vase", args[0], "-o", str(out), *args[1:]]) == 2
+        err = capsys.readouterr().err.strip()
+        assert len(err.splitlines()) == 1 and message in err, err
+        assert not out.exists()
+
+
+REOPEN = """
+import bpy, json, sys
+bpy.ops.wm.open_mainfile(filepath=sys.argv[1])
+mod = next(m for o in bpy.data.objects for m in o.modifiers
+           if m.type == "NODES" and m.node_group.name == "GeoCode vase")
+values = {item.name: mod[item.identifier] for item in mod.node_group.interface.items_tree
+          if item.item_type == "SOCKET" and item.in_out == "INPUT" and item.socket_type != "NodeSocketGeometry"}
+print("RESULT", json.dumps({k: (list(v) if hasattr(v, "__len__") else v) for k, v in values.items()}))
+"""
+
+
+def test_blend_reopens_with_the_values_set(files, tmp_path):
+    assert main(["reconstruct", "vase", str(files["root"] / "vase.obj"), "-o", str(tmp_path),
+                 "--checkpoint", str(files["ckpt"]), "--refine", "3"]) == 0
+    values = yaml.safe_load((tmp_path / "vase.yaml").read_text())
+    run = subprocess.run([sys.executable, "-c", REOPEN, str(tmp_path / "vase.blend")],
+                         capture_output=True, text=True, timeout=300)
+    line = next(ln for ln in run.stdout.splitlines() if ln.startswith("RESULT"))
+    saved = json.loads(line[len("RESULT "):])
+    for name, value in values.items():
+        assert saved[name] == pytest.approx(float(value), abs=1e-5), name
