@@ -191,6 +191,7 @@ SETTINGS = {key: Setting(meaning, *rule) for key, (meaning, rule) in {
     "eval.sparse": ("point counts of the sparse random clouds", _each(_whole(1))),
     "eval.max_test_shapes": ("evaluate on at most this many test shapes; null: all", _SHAPES),
     "eval.variants": ("model variants the workflow trains and evaluates", _each(_NAME)),
+    "eval.fit_budget": ("program evaluations of `geocode reconstruct --refine` for clouds", _whole(0)),
 }.items()}
 
 
