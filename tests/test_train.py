@@ -22,7 +22,7 @@ def run(tmp_path_factory):
         env.setenv(PROGRAMS_ENV, str(recipe_path.parent))
         cfg = compose([
             "profile=smoke", f"paths.data={data}", f"paths.build={build}", f"paths.runs={root / 'runs'}",
-            f"domain={DOMAIN}", f"data.points.train_random={N_PICK}",
+            f"domain={DOMAIN}", f"domains=[{DOMAIN}]", f"data.points.train_random={N_PICK}",
             "train.max_epochs=1", "train.batch_size=4", "train.accelerator=cpu", "train.devices=1",
         ])
         assert [c.name for c in cfg.data.sketch.cameras if c.train] == CAMERAS
