@@ -1,8 +1,18 @@
 #!/usr/bin/env bash
 # One-time (and idempotent) set-up: a Python 3.11 virtual environment in .venv with geocode
 # and everything it needs. Reruns take a second when nothing changed.
+#   --slurm (or GEOCODE_SLURM=1): also the SLURM executor plugin, for profiles/slurm
 set -euo pipefail
 cd "$(dirname "$0")/.."
+
+extras=dev
+for arg in "$@"; do
+  case $arg in
+    --slurm) GEOCODE_SLURM=1 ;;
+    *) echo "setup: unknown option $arg; the only one is --slurm" >&2; exit 2 ;;
+  esac
+done
+[ "${GEOCODE_SLURM:-0}" = 1 ] && extras=dev,slurm
 
 python=${GEOCODE_PYTHON:-}
 for candidate in python3.11 python3; do
@@ -34,13 +44,13 @@ fi
 
 [ -x .venv/bin/python ] || "$python" -m venv .venv
 stamp=.venv/.geocode-installed
-want=$(cat pyproject.toml scripts/setup.sh | sha1sum | cut -d' ' -f1)
+want=$( (cat pyproject.toml scripts/setup.sh; echo "$extras") | sha1sum | cut -d' ' -f1)
 if [ "$(cat "$stamp" 2>/dev/null)" != "$want" ]; then
   .venv/bin/python -m pip install -q --upgrade pip
   # torch first, pinned: where a CPU wheel is on hand (this workplace) pip takes it instead
   # of a multi-GB CUDA build; elsewhere this is the usual registry install.
   .venv/bin/python -c 'import torch' 2>/dev/null || .venv/bin/python -m pip install -q "${GEOCODE_TORCH:-torch==2.13.0}"
-  .venv/bin/python -m pip install -q -e ".[dev]"
+  .venv/bin/python -m pip install -q -e ".[$extras]"
   echo "$want" > "$stamp"
 fi
 echo "setup: ready (.venv, $(.venv/bin/python --version))"

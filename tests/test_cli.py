@@ -36,7 +36,7 @@ def test_config_prints_the_composed_profile(capsys):
 
 
 @pytest.mark.parametrize("override, words", [
-    ("data.shards=0", "data.shards=0: give a whole number >= 1"),
+    ("data.shards=0", "data.shards=0: out of range; give a whole number >= 1"),
     ("profile=huge", "profile"),
     ("data.nonsense=1", "nonsense"),
     ("domain=tabel", "domain=tabel: no such domain; use one of "),

@@ -7,6 +7,7 @@ import pytest
 import trimesh
 
 from geocode import meshio
+from geocode.errors import UserError
 from geocode.points import (
     add_noise,
     farthest_point_sampling,
@@ -162,7 +163,7 @@ def test_points_shard_seed_changes_clouds(tmp_path):
 
 
 def test_points_shard_missing_export(tmp_path):
-    with pytest.raises(FileNotFoundError, match="export-3.txt"):
+    with pytest.raises(UserError, match="export-3.txt"):
         points_shard(tmp_path, 3, {"surface": 10, "fps": 5, "random": 5}, seed=0)
 
 

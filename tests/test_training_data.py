@@ -91,7 +91,7 @@ def toy_config(root, epochs: int, *overrides: str):
         env.setenv(PROGRAMS_ENV, str(recipe_path.parent))
         yield compose([
             "profile=smoke", f"paths.data={data}", f"paths.build={build}", f"paths.runs={root / 'runs'}",
-            f"domain={DOMAIN}", f"data.points.train_random={N_PICK}",
+            f"domain={DOMAIN}", f"domains=[{DOMAIN}]", f"data.points.train_random={N_PICK}",
             f"train.max_epochs={epochs}", "train.batch_size=4", "train.accelerator=cpu", "train.devices=1",
             *overrides,
         ])

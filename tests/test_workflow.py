@@ -67,7 +67,7 @@ def test_default_run_plans_huang_everywhere_and_the_chair_ablations(tmp_path):
 def test_bad_config_stops_before_any_job_with_one_line(tmp_path):
     result = snakemake(tmp_path, "-n", "results/tables", "--config", "data={shards: 0}", check=False)
     assert result.returncode != 0
-    assert "data.shards=0: give a whole number >= 1" in result.stdout + result.stderr
+    assert "data.shards=0: out of range; give a whole number >= 1" in result.stdout + result.stderr
     assert not (tmp_path / "data").exists()
 
 

@@ -2,8 +2,9 @@
 
 Pipeline steps take Hydra overrides (`key=value`) after their options, so that
 `geocode train profile=smoke train.max_epochs=2` and the Snakefile compose the same config.
-A user's mistake ends in one line on stderr and exit code 2, never a traceback
-(set GEOCODE_DEBUG=1 to see one).
+A user's mistake ends in one line on stderr, `<file or key>: <problem>; <fix>`, and exit code
+2, never a traceback (set GEOCODE_DEBUG=1 to see one); Ctrl-C and SIGTERM end in one line and
+exit code 130 / 143.
 """
 
 from __future__ import annotations
@@ -16,27 +17,45 @@ import signal
 import sys
 from pathlib import Path
 
-# What a user's input can cause; anything else is a bug and keeps its traceback.
-USER_ERRORS = (ValueError, FileNotFoundError)
+from geocode.errors import Interrupted, UserError, import_blender, stop_signals_raise
 
 
 def main(argv: list[str] | None = None) -> int:
-    # A terminated step (Snakemake stops its jobs with SIGTERM) unwinds like Ctrl-C, so that
-    # temporary files are removed and nothing half-written is left behind.
-    signal.signal(signal.SIGTERM, lambda *_: sys.exit(128 + signal.SIGTERM))
-    args = parse(argv)
-    logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s: %(message)s",
-                        datefmt="%H:%M:%S", stream=sys.stderr)
-    try:
-        result = args.run(args)
-    except USER_ERRORS as exc:
-        if os.environ.get("GEOCODE_DEBUG"):
-            raise
+    # Handlers first: a stop signal that arrives while Blender starts up must wait for it.
+    with stop_signals_raise():
+        try:
+            args = parse(argv)
+            logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s: %(message)s",
+                                datefmt="%H:%M:%S", stream=sys.stderr)
+            if args.run in BLENDER:
+                import_blender()
+            result = args.run(args)
+            if result is not None:
+                print(json.dumps(result) if getattr(args, "json", False) else format_result(result))
+        except (UserError, Interrupted, KeyboardInterrupt) as exc:
+            if os.environ.get("GEOCODE_DEBUG"):
+                raise
+            return report(exc)
+        except BrokenPipeError:  # the reader left (`geocode config --keys | head`): not an error
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+    return 0
+
+
+def report(exc: UserError | Interrupted | KeyboardInterrupt) -> int:
+    """One line on stderr for a user's mistake (exit 2) or a stop signal (exit 128 + signal)."""
+    if isinstance(exc, UserError):
         print(f"geocode: {exc}", file=sys.stderr)
         return 2
-    if result is not None:
-        print(json.dumps(result) if getattr(args, "json", False) else format_result(result))
-    return 0
+    signum = exc.signum if isinstance(exc, Interrupted) else signal.SIGINT
+    print(f"geocode: stopped by {signal.Signals(signum).name}; rerun the same command to go on", file=sys.stderr)
+    return 128 + signum
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse, with a usage mistake on one line like every other mistake."""
+
+    def error(self, message):
+        raise UserError(self.prog.partition(" ")[2] or "command line", message, f"see {self.prog} --help")
 
 
 def parse(argv: list[str] | None) -> argparse.Namespace:
@@ -56,8 +75,41 @@ def format_result(result) -> str:
     return str(result)
 
 
+def at_least(low: int):
+    """An argument type: a whole number >= low."""
+    def whole(text: str) -> int:
+        if not text.isdigit() or int(text) < low:
+            raise argparse.ArgumentTypeError(f"{text!r}: give a whole number >= {low}")
+        return int(text)
+    return whole
+
+
+def output_file(text: str) -> Path:
+    """An argument type: a file that can be written, checked before any work is done."""
+    return writable(Path(text), folder=False)
+
+
+def output_folder(text: str) -> Path:
+    return writable(Path(text), folder=True)
+
+
+def writable(path: Path, folder: bool) -> Path:
+    want, other = ("folder", "file") if folder else ("file", "folder")
+    if path.exists() and path.is_dir() != folder:
+        raise argparse.ArgumentTypeError(f"{path}: is a {other}; give a {want} path")
+    existing = next(p for p in ((path,) if folder else ()) + tuple(path.parents) if p.exists())
+    if not existing.is_dir():
+        raise argparse.ArgumentTypeError(f"{path}: {existing} is a file, not a folder; give another path")
+    if not os.access(existing, os.W_OK):
+        raise argparse.ArgumentTypeError(f"{path}: {existing} is not writable; give another path")
+    return path
+
+
 def parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="geocode", description=__doc__.splitlines()[0])
+    from geocode.config import registry
+
+    domains = registry()
+    p = Parser(prog="geocode", description=__doc__.splitlines()[0])
     sub = p.add_subparsers(required=True, metavar="command")
 
     c = sub.add_parser("programs", help="list the programs with their parameter counts")
@@ -65,31 +117,31 @@ def parser() -> argparse.ArgumentParser:
 
     program = sub.add_parser("program", help="show or build one program").add_subparsers(required=True, metavar="action")
     c = program.add_parser("show", help="parameters, ranges, classes and visibility rules")
-    c.add_argument("domain")
+    c.add_argument("domain", choices=domains)
     c.add_argument("--json", action="store_true")
     c.set_defaults(run=cmd_program_show)
     c = program.add_parser("build", help="write the program as a .blend (and its manifest)")
-    c.add_argument("domain")
-    c.add_argument("-o", "--output", required=True, type=Path, help="the .blend to write")
-    c.add_argument("--manifest", type=Path, help="also write the parameter manifest (JSON)")
+    c.add_argument("domain", choices=domains)
+    c.add_argument("-o", "--output", required=True, type=output_file, help="the .blend to write")
+    c.add_argument("--manifest", type=output_file, help="also write the parameter manifest (JSON)")
     c.set_defaults(run=cmd_program_build)
 
     c = sub.add_parser("shape", help="evaluate a program at given values and write an OBJ")
-    c.add_argument("domain")
+    c.add_argument("domain", choices=domains)
     c.add_argument("values", nargs="*", metavar="name=value")
-    c.add_argument("-o", "--output", required=True, type=Path)
-    c.add_argument("--png", type=Path, help="also render a picture of it")
+    c.add_argument("-o", "--output", required=True, type=output_file)
+    c.add_argument("--png", type=output_file, help="also render a picture of it")
     c.set_defaults(run=cmd_shape)
 
     c = sub.add_parser("gallery", help="render 16 random shapes into one PNG")
-    c.add_argument("domain")
-    c.add_argument("-o", "--output", required=True, type=Path)
-    c.add_argument("--n", type=int, default=16)
-    c.add_argument("--seed", type=int, default=0)
+    c.add_argument("domain", choices=domains)
+    c.add_argument("-o", "--output", required=True, type=output_file)
+    c.add_argument("--n", type=at_least(1), default=16)
+    c.add_argument("--seed", type=at_least(0), default=0)
     c.set_defaults(run=cmd_gallery)
 
     c = sub.add_parser("reconstruct", help="a mesh, point cloud or drawing -> parameters, mesh, preview, .blend")
-    c.add_argument("domain")
+    c.add_argument("domain", choices=domains)
     c.add_argument("input", type=Path, help="mesh (.obj .ply .stl .glb), cloud (.ply .xyz .npy) or drawing (.png .jpg)")
     c.add_argument("-o", "--output", required=True, type=Path, help="folder for <input>.yaml|obj|png|blend")
     c.add_argument("--checkpoint", type=Path, help="default: the domain's joint model of the run (paths.runs)")
@@ -99,7 +151,7 @@ def parser() -> argparse.ArgumentParser:
     c.set_defaults(run=cmd_reconstruct)
 
     c = sub.add_parser("mix", help="shape a with some parameters taken from shape b")
-    c.add_argument("domain")
+    c.add_argument("domain", choices=domains)
     c.add_argument("a", type=Path, help="YAML of parameter values (e.g. a dataset shape)")
     c.add_argument("b", type=Path)
     c.add_argument("--take", required=True, nargs="+", metavar="NAME",
@@ -108,7 +160,7 @@ def parser() -> argparse.ArgumentParser:
     c.set_defaults(run=cmd_mix)
 
     c = sub.add_parser("interpolate", help="a sequence of shapes from a to b, and a strip PNG")
-    c.add_argument("domain")
+    c.add_argument("domain", choices=domains)
     c.add_argument("a", type=Path)
     c.add_argument("b", type=Path)
     c.add_argument("--steps", type=int, default=6)
@@ -122,10 +174,10 @@ def parser() -> argparse.ArgumentParser:
 
     c = sub.add_parser("bench", help="measure a stage's throughput")
     c.add_argument("stage", choices=["program", "dataset", "train", "epoch", "eval", "fit"])
-    c.add_argument("domain", nargs="?", default="vase")
-    c.add_argument("--n", type=int, help="shapes (program: 200, fit: 20 test shapes)")
-    c.add_argument("--clouds", type=int, default=9330, help="epoch: clouds per epoch (paper-scale vase)")
-    c.add_argument("--sketches", type=int, default=18660, help="epoch: sketches per epoch")
+    c.add_argument("domain", nargs="?", default="vase", choices=domains)
+    c.add_argument("--n", type=at_least(1), help="shapes (program: 200, fit: 20 test shapes)")
+    c.add_argument("--clouds", type=at_least(1), default=9330, help="epoch: clouds per epoch (paper-scale vase)")
+    c.add_argument("--sketches", type=at_least(1), default=18660, help="epoch: sketches per epoch")
     c.add_argument("--device", default="auto", help="epoch: auto (a GPU where there is one), cpu or cuda")
     c.add_argument("--variant", default="joint", help="epoch: the model variant (joint, separate, regression, huang)")
     c.add_argument("--points", type=int, default=2300, help="epoch: points per cloud")
@@ -141,35 +193,37 @@ def parser() -> argparse.ArgumentParser:
     for name, fn in (("export", cmd_export), ("sketch", cmd_sketch), ("points", cmd_points)):
         c = sub.add_parser(name, help=f"one shard of the {name} stage ({step})")
         c.add_argument("--split", required=True)
-        c.add_argument("--shard", required=True, type=int)
+        c.add_argument("--shard", required=True, type=int, help="0 .. data.shards - 1")
         c.set_defaults(run=fn)
     c = sub.add_parser("train", help=f"train a model ({step})")
-    c.add_argument("--out", type=Path, help="run folder (default: <paths.runs>/<domain>/<variant>)")
+    c.add_argument("--out", type=output_folder, help="run folder (default: <paths.runs>/<domain>/<variant>)")
     c.set_defaults(run=cmd_train)
     c = sub.add_parser("simplify", help=f"decimate the test meshes into split test-s<factor> ({step})")
-    c.add_argument("--factor", required=True, type=int)
+    c.add_argument("--factor", required=True, type=at_least(1), help="one of eval.simplify")
     c.set_defaults(run=cmd_simplify)
     c = sub.add_parser("predict", help=f"predict every test condition with a checkpoint ({step})")
     c.add_argument("--checkpoint", required=True, type=Path)
-    c.add_argument("-o", "--output", required=True, type=Path)
+    c.add_argument("-o", "--output", required=True, type=output_file)
     c.set_defaults(run=cmd_predict)
     c = sub.add_parser("rebuild", help=f"rebuild one shard of predictions with the program ({step})")
     c.add_argument("--predictions", required=True, type=Path)
-    c.add_argument("--shard", required=True, type=int)
+    c.add_argument("--shard", required=True, type=int, help="0 .. data.shards - 1")
     c.set_defaults(run=cmd_rebuild)
     c = sub.add_parser("metrics", help=f"Chamfer distances and drop tests of rebuilt predictions ({step})")
     c.add_argument("--predictions", required=True, type=Path)
-    c.add_argument("-o", "--output", required=True, type=Path)
+    c.add_argument("-o", "--output", required=True, type=output_file)
     c.set_defaults(run=cmd_metrics)
     c = sub.add_parser("tables", help=f"metrics files -> the paper's tables ({step})")
     c.add_argument("--metrics", required=True, nargs="+", type=Path)
-    c.add_argument("-o", "--output", required=True, type=Path)
+    c.add_argument("-o", "--output", required=True, type=output_folder)
     c.set_defaults(run=cmd_tables)
     c = sub.add_parser("report", help=f"an HTML page of inputs, ground truth and predictions ({step})")
     c.add_argument("--metrics", required=True, nargs="+", type=Path)
-    c.add_argument("-o", "--output", required=True, type=Path)
+    c.add_argument("-o", "--output", required=True, type=output_folder)
     c.set_defaults(run=cmd_report)
-    c = sub.add_parser("config", help="print the composed config for these overrides")
+    c = sub.add_parser("config", help="print the composed config for these overrides",
+                       epilog="`geocode config --keys` lists the groups and every key with its meaning.")
+    c.add_argument("--keys", action="store_true", help="list the groups, and every key with its value and meaning")
     c.set_defaults(run=cmd_config)
 
     for action in sub.choices.values():
@@ -232,7 +286,7 @@ def parse_values(tokens: list[str]) -> dict[str, float]:
         except ValueError:
             sep = ""
         if not sep or not name:
-            raise ValueError(f"{token!r}: write a parameter value as name=number, e.g. body_height=1.2")
+            raise UserError(repr(token), "not a parameter value", "write name=number, e.g. body_height=1.2")
     return values
 
 
@@ -314,15 +368,24 @@ def cmd_bench(args):
 # -- pipeline steps -------------------------------------------------------------------------
 
 def step_config(args, *fixed: str):
-    from geocode.config import compose
+    """The composed config; a --shard outside 0 .. data.shards - 1 is refused."""
+    from geocode.config import ConfigError, compose
 
-    return compose([*fixed, *args.overrides])
+    cfg = compose([*fixed, *args.overrides])
+    shard = getattr(args, "shard", None)
+    if shard is not None and not 0 <= shard < cfg.data.shards:
+        raise ConfigError(f"--shard {shard}", f"out of range for data.shards={cfg.data.shards}",
+                          f"give 0 .. {cfg.data.shards - 1}")
+    return cfg
 
 
 def cmd_config(args):
     from omegaconf import OmegaConf
 
-    return OmegaConf.to_yaml(step_config(args), resolve=True)
+    from geocode.config import describe_keys
+
+    cfg = step_config(args)
+    return describe_keys(cfg) if args.keys else OmegaConf.to_yaml(cfg, resolve=True)
 
 
 def cmd_sample(args):
@@ -398,10 +461,11 @@ def cmd_tables(args):
     import pandas as pd
 
     from geocode.config import config_hash, max_epochs
+    from geocode.meshio import read_parquet
     from geocode.tables import write_tables
 
     cfg = step_config(args)
-    metrics = pd.concat([pd.read_parquet(p) for p in args.metrics], ignore_index=True)
+    metrics = pd.concat([read_parquet(p, "rerun the metrics step") for p in args.metrics], ignore_index=True)
     epochs = ", ".join(f"{v} {max_epochs(cfg, v)}" for v in sorted(metrics.variant.unique()))
     header = (f"profile {cfg.profile_name}, config {config_hash(cfg)}, {metrics.id.nunique()} test shapes; "
               f"max epochs: {epochs}")
@@ -416,6 +480,9 @@ def cmd_report(args):
     return report_step(step_config(args), args.metrics, args.output)
 
 
+# Commands that start Blender: it is imported first, with stop signals held until it is up.
+BLENDER = {cmd_programs, cmd_program_show, cmd_program_build, cmd_shape, cmd_gallery, cmd_export,
+           cmd_sketch, cmd_rebuild, cmd_reconstruct, cmd_mix, cmd_interpolate, cmd_addon_build}
 STEPS = {cmd_reconstruct, cmd_report, cmd_sample, cmd_export, cmd_sketch, cmd_points, cmd_train, cmd_config, cmd_simplify,
          cmd_predict, cmd_rebuild, cmd_metrics, cmd_tables}
 

@@ -14,6 +14,8 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from geocode.errors import UserError
+
 
 def read_values(path: str | Path, program) -> dict[str, float]:
     """Every parameter value of the shape file `path` (defaults filled in), checked against
@@ -22,18 +24,18 @@ def read_values(path: str | Path, program) -> dict[str, float]:
     try:
         data = yaml.safe_load(path.read_text(encoding="utf-8"))
     except FileNotFoundError:
-        raise FileNotFoundError(f"{path}: no such shape file; give a YAML of parameter values "
+        raise UserError(f"{path}: no such shape file; give a YAML of parameter values "
                                 "(e.g. data/<profile>/<domain>/test/shapes/<id>.yaml)") from None
     except (OSError, UnicodeDecodeError, yaml.YAMLError) as exc:
         problem = str(exc).splitlines()[0]
-        raise ValueError(f"{path}: not a readable YAML file ({problem}); give a mapping "
+        raise UserError(f"{path}: not a readable YAML file ({problem}); give a mapping "
                          "name: value") from None
     if not isinstance(data, Mapping) or not data:
-        raise ValueError(f"{path}: holds no parameter values; give a mapping name: value")
+        raise UserError(f"{path}: holds no parameter values; give a mapping name: value")
     try:
         return program.check(data)
     except ValueError as exc:
-        raise ValueError(f"{path}: {exc}") from None
+        raise UserError(f"{path}: {exc}") from None
 
 
 def select(program, tokens: Sequence[str]) -> list[str]:
@@ -44,7 +46,7 @@ def select(program, tokens: Sequence[str]) -> list[str]:
     for token in tokens:
         group = [n for n in names if n == token or n.startswith(f"{token.rstrip('_')}_")]
         if not group:
-            raise ValueError(f"--take {token}: no parameter of {program.domain!r} is or starts "
+            raise UserError(f"--take {token}: no parameter of {program.domain!r} is or starts "
                              f"with {token!r}; see `geocode program show {program.domain}`")
         chosen += [n for n in group if n not in chosen]
     return chosen
@@ -60,7 +62,7 @@ def interpolate(program, a: Mapping[str, float], b: Mapping[str, float],
     """`steps` shapes from `a` to `b` (both included): continuous parameters blend linearly,
     discrete ones (int, bool) switch from a's value to b's at the midpoint."""
     if steps < 2:
-        raise ValueError(f"--steps {steps}: give at least 2 (the two end shapes)")
+        raise UserError(f"--steps {steps}: give at least 2 (the two end shapes)")
     kinds = {p.name: p.kind for p in program.parameters}
     sequence = []
     for t in np.linspace(0.0, 1.0, steps).tolist():

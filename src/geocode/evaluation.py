@@ -18,8 +18,17 @@ import numpy as np
 import pandas as pd
 from omegaconf import DictConfig
 
-from geocode.config import data_dir
-from geocode.meshio import normalise_unit_sphere, read_obj, write_obj, write_parquet, write_text
+from geocode.config import NAME, data_dir, simplified_split
+from geocode.errors import UserError
+from geocode.meshio import (
+    REDO_EXPORT,
+    normalise_unit_sphere,
+    read_obj,
+    read_parquet,
+    write_obj,
+    write_parquet,
+    write_text,
+)
 from geocode.recipe import manifest_path
 from geocode.seeds import generator
 from geocode.timing import Stopwatch
@@ -29,10 +38,6 @@ log = logging.getLogger("geocode.evaluation")
 
 KEYS = ["condition", "modality", "source", "camera", "noise", "sparse", "id"]
 MODALITY_NAMES = {"points": "pc", "sketch": "sketch"}  # the model's inputs -> metrics' modality
-
-
-def simplified_split(factor: int) -> str:
-    return f"test-s{factor}"
 
 
 def robustness(variant: str) -> bool:
@@ -86,7 +91,7 @@ def simplify_step(cfg: DictConfig, domain: str, factor: int) -> str:
     for shard in range(cfg.data.shards):
         rows = recipes[recipes["shard"] == shard]
         for shape_id in rows["id"]:
-            mesh = read_obj(src / "shapes" / f"{shape_id}.obj")
+            mesh = read_obj(src / "shapes" / f"{shape_id}.obj", REDO_EXPORT)
             small = normalise_unit_sphere(simplify(mesh, 1.0 / factor))
             write_obj(dst / "shapes" / f"{shape_id}.obj", small)
             faces_before += len(mesh.faces)
@@ -102,7 +107,7 @@ def point_input(cfg: DictConfig, domain: str, cond: dict, shape_id: str) -> np.n
 
     rng = generator(cfg.seed, "eval", cond["condition"], shape_id)
     if cond["sparse"]:
-        mesh = read_obj(data_dir(cfg, domain, "test") / "shapes" / f"{shape_id}.obj")
+        mesh = read_obj(data_dir(cfg, domain, "test") / "shapes" / f"{shape_id}.obj", REDO_EXPORT)
         return sparse_cloud(mesh, cond["sparse"], rng)
     split = "test" if cond["source"] == "test" else f"test-{cond['source']}"
     clouds = load_clouds(data_dir(cfg, domain, split) / "points" / f"{shape_id}.npz")
@@ -124,7 +129,7 @@ def predict_step(cfg: DictConfig, domain: str, checkpoint: Path, out: Path) -> s
     from geocode.training_data import load_sketch
 
     recipe = load_recipe(cfg)
-    model = load_model(checkpoint)
+    model = load_model(checkpoint, recipe=recipe)
     ids = test_ids(cfg, domain)
     full = robustness(model.hparams.variant)
     modalities = [MODALITY_NAMES[m] for m in model.modalities]
@@ -159,13 +164,25 @@ def mean_shape(cfg: DictConfig, domain: str, recipe) -> pd.DataFrame:
                                          camera="", noise=0.0, sparse=0, id="mean-shape")
 
 
+def read_predictions(path: Path) -> pd.DataFrame:
+    table = read_parquet(path, "rerun the predict step")
+    missing = [k for k in KEYS if k not in table]
+    if missing:
+        raise UserError(path, f"no column {missing[0]!r}: not a predictions file", "give the predict step's output")
+    names = pd.concat([table["condition"], table["id"]]).astype(str)
+    bad = names[~names.str.fullmatch(NAME.pattern)]
+    if len(bad):  # they become folder and file names
+        raise UserError(path, f"condition or id {bad.iloc[0]!r} is not a plain name", "give the predict step's output")
+    return table
+
+
 # -- rebuilding ---------------------------------------------------------------------------------
 
 def rebuild_step(cfg: DictConfig, domain: str, predictions: Path, shard: int) -> str:
     """Rebuild every n-th prediction with the program: <eval>/rebuilt/<condition>/<id>.obj."""
     from geocode.blender.rebuild import rebuild
 
-    table = pd.read_parquet(predictions).iloc[shard::cfg.data.shards]
+    table = read_predictions(predictions).iloc[shard::cfg.data.shards]
     names = [c for c in table.columns if c not in KEYS]
     out_dir = Path(predictions).parent / "rebuilt"
     jobs = [(f"{r['condition']}/{r['id']}", {n: r[n] for n in names}) for r in table.to_dict("records")]
@@ -189,16 +206,16 @@ def metrics_step(cfg: DictConfig, domain: str, predictions: Path, out: Path) -> 
     from geocode.stability import drop_test
 
     hanging = hangs(cfg, domain)  # a ceiling lamp: `stable` stays NaN
-    table = pd.read_parquet(predictions)
+    table = read_predictions(predictions)
     rebuilt = Path(predictions).parent / "rebuilt"
     variant = Path(predictions).parent.parent.name          # <runs>/<domain>/<variant>/eval/
     gt_dir = data_dir(cfg, domain, "test") / "shapes"
     cams = {c.name for c in cfg.data.sketch.cameras if c.train}
-    gt_meshes = {i: read_obj(gt_dir / f"{i}.obj") for i in test_ids(cfg, domain)}
+    gt_meshes = {i: read_obj(gt_dir / f"{i}.obj", REDO_EXPORT) for i in test_ids(cfg, domain)}
     full = robustness(variant)
     rows = []
     for rec in table[KEYS].to_dict("records"):
-        pred = read_obj(rebuilt / rec["condition"] / f"{rec['id']}.obj")
+        pred = read_obj(rebuilt / rec["condition"] / f"{rec['id']}.obj", "delete it and rerun the rebuild step")
         targets = gt_meshes.items() if rec["modality"] == "baseline" else [(rec["id"], gt_meshes[rec["id"]])]
         clean = rec["source"] == "test" and not rec["noise"] and not rec["sparse"]
         stable = np.nan

@@ -12,6 +12,9 @@ import numpy as np
 import pandas as pd
 import trimesh
 
+from geocode.errors import UserError, one_line
+
+REDO_EXPORT = "delete it and rerun the export step"  # the fix for a broken dataset mesh
 _UMASK = os.umask(0o022)
 os.umask(_UMASK)
 
@@ -21,13 +24,20 @@ def atomic_path(path: str | os.PathLike):
     """Yield a temporary path beside `path`; rename it onto `path` only if the block succeeds,
     so that a crash never leaves a half-written file looking complete."""
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    if path.is_dir():
+        raise UserError(path, "is a folder", "give a file name to write")
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    except OSError as exc:
+        raise UserError(path, f"cannot be written ({exc.strerror})", "choose a writable place") from None
     os.close(fd)
     os.chmod(tmp, 0o666 & ~_UMASK)        # mkstemp makes 0600; outputs are ordinary files
     try:
         yield Path(tmp)
         os.replace(tmp, path)
+    except OSError as exc:
+        raise UserError(path, f"cannot be written ({exc.strerror})", "free some space or choose another place") from None
     finally:
         if os.path.exists(tmp):
             os.unlink(tmp)
@@ -54,15 +64,18 @@ def write_obj(path: str | os.PathLike, mesh: trimesh.Trimesh) -> None:
     write_text(path, obj_text(mesh.vertices, mesh.faces))
 
 
-def read_obj(path: str | os.PathLike) -> trimesh.Trimesh:
-    """Read a triangle mesh; a missing, empty or unreadable file raises ValueError naming it."""
+def read_obj(path: str | os.PathLike, fix: str = "give an OBJ with at least one face") -> trimesh.Trimesh:
+    """Read a triangle mesh; a missing, empty, unreadable or non-finite one raises UserError
+    naming the file (`fix` says how to remake it)."""
     path = Path(path)
     try:
         mesh = trimesh.load(path, file_type="obj", force="mesh", process=False)
     except Exception as exc:  # trimesh raises many types for a broken file
-        raise ValueError(f"{path}: not a readable OBJ mesh ({exc})") from None
+        raise UserError(path, f"not a readable OBJ mesh ({one_line(exc)})", fix) from None
     if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
-        raise ValueError(f"{path}: no triangles found; give an OBJ with at least one face")
+        raise UserError(path, "no triangles found", fix)
+    if not np.isfinite(mesh.vertices).all():
+        raise UserError(path, "has vertices that are NaN or infinite", fix)
     return mesh
 
 
@@ -77,6 +90,17 @@ def normalise_unit_sphere(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
     out = trimesh.Trimesh(vertices / radius, mesh.faces, process=False)
     out.metadata.update(mesh.metadata)
     return out
+
+
+def read_parquet(path: str | os.PathLike, fix: str) -> pd.DataFrame:
+    """A parquet table; a missing or broken file raises UserError naming it (`fix` says how
+    to remake it)."""
+    try:
+        return pd.read_parquet(path)
+    except FileNotFoundError:
+        raise UserError(path, "file not found", fix) from None
+    except Exception as exc:  # pyarrow raises several types for a broken file
+        raise UserError(path, f"not a readable parquet file ({one_line(exc)})", fix) from None
 
 
 def write_parquet(path: str | os.PathLike, frame: pd.DataFrame) -> None:

@@ -14,6 +14,8 @@ import numpy as np
 import trimesh
 
 from geocode import meshio
+from geocode.errors import UserError, one_line
+from geocode.meshio import REDO_EXPORT
 from geocode.seeds import generator
 from geocode.timing import Progress, seconds_per_call
 
@@ -149,8 +151,8 @@ def load_clouds(path: str | Path) -> dict[str, np.ndarray]:
     try:
         with np.load(path, allow_pickle=False) as data:
             return {k: data[k] for k in data.files}
-    except (OSError, ValueError, zipfile.BadZipFile) as exc:
-        raise ValueError(f"{path}: not a readable point-cloud .npz ({exc})") from None
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile) as exc:
+        raise UserError(path, f"not a readable point-cloud .npz ({one_line(exc)})", "delete it and rerun the points step") from None
 
 
 def add_noise(points: np.ndarray, sigma: float, rng: np.random.Generator) -> np.ndarray:
@@ -188,7 +190,7 @@ def _complete(path: Path) -> bool:
     try:
         with np.load(path, allow_pickle=False) as data:
             return all(k in data.files for k in CLOUD_KEYS)
-    except (OSError, ValueError, zipfile.BadZipFile):
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile):
         return False
 
 
@@ -205,14 +207,14 @@ def points_shard(
     split_dir = Path(split_dir)
     ids_file = split_dir / "done" / f"export-{shard}.txt"
     if not ids_file.exists():
-        raise FileNotFoundError(f"{ids_file}: missing; run the export stage for shard {shard}")
+        raise UserError(ids_file, "missing", f"run the export step for shard {shard} first")
     ids = [line.strip() for line in ids_file.read_text().splitlines() if line.strip()]
     sizes = {k: int(cfg_points[k]) for k in ("surface", "fps", "random")}
     progress = Progress(f"points shard {shard}", len(ids), log)
     for shape_id in ids:
         out = split_dir / "points" / f"{shape_id}.npz"
         if not _complete(out):
-            mesh = meshio.read_obj(split_dir / "shapes" / f"{shape_id}.obj")
+            mesh = meshio.read_obj(split_dir / "shapes" / f"{shape_id}.obj", REDO_EXPORT)
             rng = generator(seed, "points", shape_id)
             save_clouds(out, make_clouds(mesh, **sizes, rng=rng))
         progress.step()

@@ -23,6 +23,7 @@ import numpy as np
 import trimesh
 
 from geocode.config import PROGRAMS_ENV, programs_dir, recipe_path, registry  # noqa: F401 (PROGRAMS_ENV, registry re-exported)
+from geocode.errors import UserError
 from geocode.expr import Expr
 from geocode.recipe import Parameter
 from geocode.timing import Stopwatch
@@ -38,12 +39,12 @@ def _import_program(domain: str) -> ModuleType:
     path = programs_dir() / f"{domain}.py"
     if not path.exists():
         known = ", ".join(registry()) or "none"
-        raise ValueError(f"{path}: no such program; known domains: {known}")
+        raise UserError(f"{path}: no such program; known domains: {known}")
     spec = importlib.util.spec_from_file_location(f"geocode_programs.{domain}", path)
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     if not callable(getattr(module, "build", None)):
-        raise ValueError(f"{path}: defines no build(g) function; add one")
+        raise UserError(f"{path}: defines no build(g) function; add one")
     return module
 
 
@@ -101,7 +102,8 @@ class Program:
         for name, value in values.items():
             parameter = self._by_name.get(name)
             if parameter is None:
-                raise ValueError(f"unknown parameter {name!r} for program {self.domain!r}")
+                raise UserError(f"unknown parameter {name!r} for program {self.domain!r}; "
+                                f"see `geocode program show {self.domain}`")
             full[name] = _checked(parameter, value)
         return full
 
@@ -229,8 +231,8 @@ def _checked(parameter: Parameter, value) -> float:
     whole = parameter.kind == "float" or abs(number - round(number)) < 1e-6
     if not (in_range and whole):
         what = {"float": "a number", "int": "an integer", "bool": "0 or 1"}[parameter.kind]
-        raise ValueError(f"{parameter.name}={value!r} is invalid: give {what} in "
-                         f"[{parameter.min:g}, {parameter.max:g}]")
+        raise UserError(f"{parameter.name}={value!r} is invalid: give {what} in "
+                        f"[{parameter.min:g}, {parameter.max:g}]")
     number = min(max(number, parameter.min), parameter.max)
     return number if parameter.kind == "float" else float(round(number))
 

@@ -25,6 +25,7 @@ import pandas as pd
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
+from geocode.errors import UserError
 from geocode.expr import Expr, ExprError, parse
 
 __all__ = [
@@ -44,7 +45,7 @@ INVISIBLE = -1.0
 RANGE_TOLERANCE = 1e-9  # a recipe may repeat the program's float range written with rounding
 
 
-class RecipeError(ValueError):
+class RecipeError(UserError):
     """A bad recipe or manifest; the message is one line naming the file, the field and the fix."""
 
 
@@ -402,11 +403,15 @@ class Recipe:
         """Read and validate a recipe YAML against the program's parameters and visibility."""
         path = Path(path)
         try:
-            text = path.read_text()
+            text = path.read_text(encoding="utf-8")
         except FileNotFoundError:
             raise RecipeError(
                 f"{path}: file not found; write the recipe beside the program"
             ) from None
+        except UnicodeDecodeError as exc:
+            raise RecipeError(path, f"not UTF-8 text (byte {exc.start})", "save it as UTF-8") from None
+        except OSError as exc:
+            raise RecipeError(path, f"cannot be read ({exc.strerror})", "give a readable YAML file") from None
         try:
             data = yaml.load(text, Loader=_UniqueKeyLoader)  # safe, and refuses repeated keys
         except yaml.YAMLError as exc:
@@ -447,8 +452,9 @@ class Recipe:
         """Every program parameter: the given values over the defaults."""
         unknown = [name for name in values if name not in self.defaults]
         if unknown:
-            raise ValueError(
-                f"unknown parameter {unknown[0]!r}; the program has {_some(self.defaults)}"
+            raise UserError(
+                f"unknown parameter {unknown[0]!r}", f"the program has {_some(self.defaults)}",
+                "rerun the sample step if the program changed",
             )
         return {**self.defaults, **{name: float(v) for name, v in values.items()}}
 
@@ -480,7 +486,7 @@ class Recipe:
         them (every recipe parameter must be there), defaults for the rest."""
         missing = [name for name in self.names if name not in frame]
         if missing:
-            raise ValueError(f"no column for recipe parameter {missing[0]!r}")
+            raise UserError(f"recipe parameter {missing[0]!r}", "no column for it", "rerun the sample step")
         given = {n: np.asarray(frame[n], dtype=np.float64) for n in self.defaults if n in frame}
         return {**self.defaults, **given}
 
@@ -588,6 +594,10 @@ def _mapping_without_duplicates(loader, node, deep=False):
     seen = set()
     for key_node, _ in node.value:
         key = loader.construct_object(key_node, deep=deep)
+        if not isinstance(key, str | int | float | bool | None):
+            raise yaml.constructor.ConstructorError(
+                None, None, f"key {key!r} is not a name", key_node.start_mark
+            )
         if key in seen:
             raise yaml.constructor.ConstructorError(
                 None, None, f"key {key!r} given twice", key_node.start_mark

@@ -19,6 +19,7 @@ import trimesh
 from PIL import Image
 from scipy import ndimage
 
+from geocode.errors import UserError, one_line
 from geocode.meshio import normalise_unit_sphere
 from geocode.points import farthest_point_sampling, sample_surface
 
@@ -44,13 +45,13 @@ def read_input(path: str | Path, up: str | None, points_cfg) -> UserInput:
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix not in MESHES + CLOUDS + IMAGES:
-        raise ValueError(f"{path}: unknown input kind {suffix or '(none)'}; give a mesh "
+        raise UserError(f"{path}: unknown input kind {suffix or '(none)'}; give a mesh "
                          f"({', '.join(MESHES)}), a cloud ({', '.join(CLOUDS)}, .ply) or a "
                          f"drawing ({', '.join(IMAGES)})")
     if not path.is_file():
-        raise FileNotFoundError(f"{path}: no such file")
+        raise UserError(f"{path}: no such file; check the path")
     if path.stat().st_size == 0:
-        raise ValueError(f"{path}: the file is empty")
+        raise UserError(f"{path}: the file is empty; give a mesh, a point cloud or a drawing")
     if suffix in IMAGES:
         return UserInput(path, "sketch", sketch_from_image(path))
     points, mesh = _read_geometry(path)
@@ -80,23 +81,25 @@ def _read_geometry(path: Path) -> tuple[np.ndarray | None, trimesh.Trimesh | Non
                 return None, _finite_mesh(loaded, path)
             points = getattr(loaded, "vertices", None)
     except Exception as exc:  # numpy and trimesh raise many types for a broken file
-        raise ValueError(f"{path}: not a readable {suffix} file ({' '.join(str(exc).split())[:120]})") from None
+        raise UserError(path, f"not a readable {suffix} file ({one_line(exc, 120)})",
+                        "export it again from its tool") from None
     points = np.asarray(points if points is not None else np.zeros((0, 3)), dtype=np.float64)
     if points.ndim != 2 or points.shape[1] != 3:
-        raise ValueError(f"{path}: expected N x 3 coordinates, got shape {points.shape}")
+        raise UserError(f"{path}: expected N x 3 coordinates, got shape {points.shape}; "
+                        "give one point (x y z) per row")
     if not np.isfinite(points).all():
-        raise ValueError(f"{path}: {int((~np.isfinite(points)).any(axis=1).sum())} points have "
+        raise UserError(f"{path}: {int((~np.isfinite(points)).any(axis=1).sum())} points have "
                          "NaN or infinite coordinates; remove them")
     if len(points) < MIN_POINTS:
-        raise ValueError(f"{path}: {len(points)} points; give at least {MIN_POINTS}")
+        raise UserError(f"{path}: {len(points)} points; give at least {MIN_POINTS}")
     return points, None
 
 
 def _finite_mesh(mesh: trimesh.Trimesh, path: Path) -> trimesh.Trimesh:
     if not np.isfinite(mesh.vertices).all():
-        raise ValueError(f"{path}: the mesh has NaN or infinite vertices; repair it")
+        raise UserError(f"{path}: the mesh has NaN or infinite vertices; repair it")
     if not mesh.area > 0:
-        raise ValueError(f"{path}: the mesh has no surface area")
+        raise UserError(f"{path}: the mesh has no surface area; give a mesh with faces")
     return mesh
 
 
@@ -107,7 +110,7 @@ def z_up(points: np.ndarray, up: str) -> np.ndarray:
         return points
     if up == "y":   # a quarter turn about X: (x, y, z) -> (x, -z, y)
         return np.stack([points[:, 0], -points[:, 2], points[:, 1]], axis=1)
-    raise ValueError(f"--up {up}: give y or z")
+    raise UserError(f"--up {up}: give y or z")
 
 
 def unit_sphere(points: np.ndarray, path: Path) -> np.ndarray:
@@ -115,7 +118,7 @@ def unit_sphere(points: np.ndarray, path: Path) -> np.ndarray:
     centred = points - (points.min(axis=0) + points.max(axis=0)) / 2
     radius = np.linalg.norm(centred, axis=1).max()
     if not radius > 0:
-        raise ValueError(f"{path}: all points coincide; give a cloud with some extent")
+        raise UserError(f"{path}: all points coincide; give a cloud with some extent")
     return centred / radius
 
 
@@ -137,11 +140,11 @@ def sketch_from_image(path: Path) -> np.ndarray:
             im.load()
             rgba = im.convert("RGBA")
     except (OSError, ValueError) as exc:
-        raise ValueError(f"{path}: not a readable image ({exc})") from None
+        raise UserError(f"{path}: not a readable image ({exc})") from None
     white = Image.new("RGBA", rgba.size, "white")
     gray = np.asarray(Image.alpha_composite(white, rgba).convert("L"), dtype=np.float64)
     if gray.max() - gray.min() < 32:
-        raise ValueError(f"{path}: the image is blank (no strokes); draw dark lines on white")
+        raise UserError(f"{path}: the image is blank (no strokes); draw dark lines on white")
     ink = gray < (gray.max() + gray.min()) / 2
     ys, xs = np.nonzero(ink)
     ink = ink[ys.min():ys.max() + 1, xs.min():xs.max() + 1]
@@ -168,7 +171,7 @@ def check_checkpoint(model, recipe, checkpoint: Path, domain: str) -> None:
     from geocode.models.heads import head_specs
 
     if list(model.hparams.heads) != head_specs(recipe):
-        raise ValueError(f"{checkpoint}: this model was trained for other parameters than "
+        raise UserError(f"{checkpoint}: this model was trained for other parameters than "
                          f"{domain!r}'s recipe; pass the checkpoint of a {domain} model")
 
 
@@ -214,7 +217,7 @@ def reconstruct(cfg, domain: str, input_path: Path, out_dir: Path,
     user_input = read_input(input_path, up, cfg.data.points)
     checkpoint = checkpoint or default_checkpoint(cfg, domain)
     if not checkpoint.is_file():
-        raise FileNotFoundError(
+        raise UserError(
             f"{checkpoint}: no trained {domain} model; run `snakemake -j2 results/tables` (or "
             f"`geocode train domain={domain}`) first, or pass --checkpoint")
     recipe = program.recipe()
@@ -227,7 +230,7 @@ def reconstruct(cfg, domain: str, input_path: Path, out_dir: Path,
     values = program.check(start)
     if refine > 0:
         if user_input.kind != "points":
-            raise ValueError("--refine: fitting needs a 3D input (mesh or cloud); give --refine 0 "
+            raise UserError("--refine: fitting needs a 3D input (mesh or cloud); give --refine 0 "
                              "for a drawing")
         result = fit(program, recipe, start, options, user_input.data, refine, seed=cfg.seed)
         values = result.values

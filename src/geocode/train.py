@@ -9,6 +9,7 @@
 
 from __future__ import annotations
 
+import hashlib
 import json
 import logging
 import sys
@@ -22,6 +23,7 @@ import torch
 from omegaconf import DictConfig, OmegaConf
 
 from geocode.config import max_epochs
+from geocode.errors import UserError, one_line
 from geocode.meshio import write_text
 from geocode.models.bench import bench_train
 from geocode.models.module import MODALITIES, GeoCodeModule
@@ -35,7 +37,7 @@ __all__ = ["CheckpointError", "bench_train", "load_model", "predict", "predict_c
 SUMMARY = "summary.json"  # in the run folder: the best scores and the majority bar
 
 
-class CheckpointError(ValueError):
+class CheckpointError(UserError):
     """A checkpoint that cannot be read or does not fit; one line naming the file."""
 
 
@@ -61,16 +63,41 @@ def run_dir(cfg: DictConfig, out_dir: str | Path | None) -> Path:
 
 def build_model(cfg: DictConfig, recipe) -> GeoCodeModule:
     """cfg.model instantiated with the recipe's heads and the optimiser settings of cfg.train."""
+    from hydra.errors import InstantiationException
     from hydra.utils import instantiate
 
+    from geocode.config import KEYS_HINT, ConfigError
     from geocode.models.heads import head_specs
 
-    return instantiate(
-        cfg.model, heads=head_specs(recipe), lr=float(cfg.train.lr),
-        step_size=int(cfg.train.step_size), gamma=float(cfg.train.gamma),
-        schedule=str(cfg.train.get("schedule", "step")), warmup_epochs=int(cfg.train.get("warmup_epochs", 0)),
-        modalities=list(cfg.train.get("modalities") or MODALITIES), _convert_="all",
-    )
+    try:
+        return instantiate(
+            cfg.model, heads=head_specs(recipe), lr=float(cfg.train.lr),
+            step_size=int(cfg.train.step_size), gamma=float(cfg.train.gamma),
+            schedule=str(cfg.train.get("schedule", "step")), warmup_epochs=int(cfg.train.get("warmup_epochs", 0)),
+            modalities=list(cfg.train.get("modalities") or MODALITIES), _convert_="all",
+        )
+    except InstantiationException as exc:
+        raise ConfigError("model", f"cannot be built ({one_line(exc.__cause__ or exc)})", KEYS_HINT) from None
+
+
+def recipe_stamp(recipe) -> dict:
+    """What a model was trained to predict: each parameter's class values ("hidden" for the
+    existence class), and a hash of the whole recipe. Checkpoints record it; prediction
+    decodes only on the same grid."""
+    grid = {p.name: [float(c) for c in p.classes] + (["hidden"] if p.has_existence else [])
+            for p in recipe.parameters}
+    text = json.dumps(recipe.to_dict(), sort_keys=True, default=str)
+    return {"hash": hashlib.sha1(text.encode()).hexdigest()[:10], "grid": grid}
+
+
+class RecipeStamp(pl.Callback):
+    """Writes `recipe_stamp(recipe)` into every checkpoint as "recipe"."""
+
+    def __init__(self, recipe):
+        self.stamp = recipe_stamp(recipe)
+
+    def on_save_checkpoint(self, trainer, pl_module, checkpoint):
+        checkpoint["recipe"] = self.stamp
 
 
 def build_datamodule(cfg: DictConfig, recipe, modalities=MODALITIES):
@@ -120,27 +147,27 @@ def train(cfg: DictConfig, out_dir: str | Path | None = None) -> dict:
     t = cfg.train
     out = run_dir(cfg, out_dir)
     ckpt_dir = out / "checkpoints"
-    out.mkdir(parents=True, exist_ok=True)
     pl.seed_everything(int(cfg.seed), workers=True)
     recipe = load_recipe(cfg)
     model = build_model(cfg, recipe)
     data = build_datamodule(cfg, recipe, model.modalities)   # huang reads no clouds
+    data.setup("fit")  # read (and check) the data before the run folder is made; kept for fit
     last = ckpt_dir / "last.ckpt"
     resume = last if last.exists() else None
     if resume is not None:
         check_compatible(resume, model)
-    OmegaConf.save(cfg, out / "config.yaml", resolve=True)
     best_cb = ModelCheckpoint(dirpath=ckpt_dir, filename="best", monitor="val/acc", mode="max",
                               save_last=True, enable_version_counter=False)
     progress = t.get("progress_bar")
-    trainer = pl.Trainer(
+    trainer = trainer_for(
+        t,
         max_epochs=max_epochs(cfg, variant(cfg)),
         accelerator=t.get("accelerator", "auto"),
         devices=t.get("devices", "auto"),
         deterministic=t.get("deterministic", False),
         default_root_dir=out,
         logger=[CSVLogger(out, name="logs"), TensorBoardLogger(out, name="tb")],  # version_<n> per (re)start
-        callbacks=[best_cb, EpochLog()],
+        callbacks=[best_cb, EpochLog(), RecipeStamp(recipe)],
         enable_progress_bar=sys.stderr.isatty() if progress is None else bool(progress),
         enable_model_summary=False,
         limit_train_batches=t.get("limit_train_batches") or 1.0,
@@ -148,6 +175,7 @@ def train(cfg: DictConfig, out_dir: str | Path | None = None) -> dict:
         log_every_n_steps=int(t.get("log_every_n_steps", 10)),
         num_sanity_val_steps=0,
     )
+    write_text(out / "config.yaml", OmegaConf.to_yaml(cfg, resolve=True))  # the run folder's first file
     trainer.fit(model, datamodule=data, ckpt_path=resume, weights_only=True)
     score = best_cb.best_model_score
     curves = epoch_metrics(out)
@@ -179,6 +207,18 @@ def epoch_metrics(run: str | Path) -> pd.DataFrame:
     return rows.drop(columns=["step"], errors="ignore").groupby("epoch").last()
 
 
+def trainer_for(t: DictConfig, **settings) -> pl.Trainer:
+    """A Lightning Trainer; an accelerator or device count this machine lacks is the user's
+    config to fix (before the run folder is made)."""
+    from lightning_fabric.utilities.exceptions import MisconfigurationException
+
+    try:
+        return pl.Trainer(**settings)
+    except MisconfigurationException as exc:
+        raise UserError(f"train.accelerator={t.accelerator}, train.devices={t.devices}", one_line(exc),
+                        "choose what this machine has (auto finds it)") from None
+
+
 def majority_accuracy(cfg: DictConfig, recipe) -> float:
     """The bar a model must clear: mean top-1 accuracy over parameters on the val split of
     always predicting each parameter's most frequent class in the train split."""
@@ -204,15 +244,30 @@ def read_checkpoint(path: str | Path, map_location="cpu") -> dict:
     """torch.load(weights_only=True) of a geocode checkpoint; CheckpointError otherwise."""
     path = Path(path)
     if not path.is_file():
-        raise CheckpointError(f"{path}: checkpoint not found; train first")
+        raise CheckpointError(path, "checkpoint not found", "train first")
     try:
         ckpt = torch.load(path, map_location=map_location, weights_only=True)
     except Exception as exc:  # torch raises many types for a broken file
-        reason = " ".join(str(exc).split())[:160]
-        raise CheckpointError(f"{path}: not a readable checkpoint ({reason}); retrain or pick another file") from None
+        raise CheckpointError(path, f"not a readable checkpoint ({one_line(exc)})", "retrain or pick another file") from None
     if not isinstance(ckpt, Mapping) or "state_dict" not in ckpt or "heads" not in ckpt.get("hyper_parameters", {}):
-        raise CheckpointError(f"{path}: not a geocode model checkpoint (no state_dict / heads)")
+        raise CheckpointError(path, "not a geocode model checkpoint (no state_dict / heads)", "pick a best.ckpt or last.ckpt")
     return dict(ckpt)
+
+
+def check_recipe(ckpt: Mapping, recipe, path) -> None:
+    """Refuse to decode a checkpoint's classes on another class grid than it was trained on."""
+    from geocode.models.heads import head_specs
+
+    if "recipe" in ckpt:
+        mine, theirs = recipe_stamp(recipe)["grid"], ckpt["recipe"]["grid"]
+    else:  # a checkpoint from before the stamp: the class counts of its heads
+        mine = {h["name"]: h["n_classes"] for h in head_specs(recipe)}
+        theirs = {h["name"]: h["n_classes"] for h in ckpt["hyper_parameters"]["heads"]}
+    for name in sorted(set(mine) | set(theirs)):
+        if mine.get(name) != theirs.get(name):
+            raise CheckpointError(path, f"trained on another recipe ({name}: classes {theirs.get(name)}, "
+                                  f"the recipe gives {mine.get(name)})",
+                                  "predict with the recipe it was trained on, or retrain")
 
 
 def check_compatible(path: Path, model: GeoCodeModule) -> None:
@@ -223,18 +278,20 @@ def check_compatible(path: Path, model: GeoCodeModule) -> None:
     bad = sorted(set(mine) ^ set(theirs)) or [k for k in mine if mine[k].shape != theirs[k].shape]
     if bad or ckpt["hyper_parameters"].get("heads") != model.hparams.heads:
         what = bad[0] if bad else "heads"
-        raise CheckpointError(f"{path}: checkpoint of a different model ({what}); delete it or train into another --out")
+        raise CheckpointError(path, f"checkpoint of a different model ({what})", "delete it or train into another --out")
 
 
-def load_model(checkpoint: str | Path, map_location="cpu") -> GeoCodeModule:
-    """A trained GeoCodeModule in eval mode, rebuilt from the checkpoint's hyperparameters."""
+def load_model(checkpoint: str | Path, map_location="cpu", recipe=None) -> GeoCodeModule:
+    """A trained GeoCodeModule in eval mode, rebuilt from the checkpoint's hyperparameters;
+    with `recipe`, only if it was trained on that recipe's class grid."""
     ckpt = read_checkpoint(checkpoint, map_location)
+    if recipe is not None:
+        check_recipe(ckpt, recipe, checkpoint)
     try:
         model = GeoCodeModule(**ckpt["hyper_parameters"])
         model.load_state_dict(ckpt["state_dict"])
     except (TypeError, ValueError, RuntimeError, KeyError) as exc:
-        reason = " ".join(str(exc).split())[:160]
-        raise CheckpointError(f"{checkpoint}: checkpoint does not fit the model ({reason})") from None
+        raise CheckpointError(checkpoint, f"checkpoint does not fit the model ({one_line(exc)})", "retrain or pick another file") from None
     return model.eval()
 
 

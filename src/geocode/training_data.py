@@ -22,6 +22,7 @@ import torch.nn.functional as F
 from PIL import Image
 from torch.utils.data import DataLoader, Dataset
 
+from geocode.errors import UserError, one_line
 from geocode.models.module import MODALITIES
 from geocode.seeds import generator, key_word
 
@@ -42,7 +43,7 @@ def load_sketch_u8(path: str | Path) -> np.ndarray:
         with Image.open(path) as im:
             return np.asarray(im.convert("L"), dtype=np.uint8)
     except (OSError, ValueError) as exc:
-        raise ValueError(f"{path}: not a readable sketch PNG ({exc}); rerun the sketch step") from None
+        raise UserError(path, f"not a readable sketch PNG ({one_line(exc)})", "delete it and rerun the sketch step") from None
 
 
 def _load_npz(path: Path) -> tuple[np.ndarray, np.ndarray]:
@@ -51,7 +52,7 @@ def _load_npz(path: Path) -> tuple[np.ndarray, np.ndarray]:
     clouds = load_clouds(path)
     missing = {"fps", "random"} - set(clouds)
     if missing:
-        raise ValueError(f"{path}: no {sorted(missing)[0]!r} cloud in it; rerun the points step")
+        raise UserError(path, f"no {sorted(missing)[0]!r} cloud in it", "delete it and rerun the points step")
     return clouds["fps"].astype(np.float32), clouds["random"].astype(np.float32)
 
 
@@ -94,7 +95,7 @@ def load_split(split_dir: str | Path, recipe, cameras: Sequence[str]) -> SplitDa
     frame = load_recipes(split_dir / "recipes.parquet")
     ids = [str(i) for i in frame["id"]]
     if not ids:
-        raise ValueError(f"{split_dir / 'recipes.parquet'}: no shapes in this split; sample more")
+        raise UserError(split_dir / "recipes.parquet", "no shapes in this split", "sample more")
     labels = recipe.class_matrix(frame).astype(np.int64)  # (n, P)
     with ThreadPoolExecutor(IO_THREADS) as pool:
         clouds = list(pool.map(_load_npz, [split_dir / "points" / f"{i}.npz" for i in ids]))

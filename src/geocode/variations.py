@@ -31,7 +31,8 @@ import pandas as pd
 from omegaconf import DictConfig
 
 from geocode.config import data_dir
-from geocode.meshio import write_parquet
+from geocode.errors import UserError
+from geocode.meshio import read_parquet, write_parquet
 from geocode.recipe import Recipe, load_recipe
 from geocode.seeds import key_word
 
@@ -298,17 +299,10 @@ def save_recipes(frame: pd.DataFrame, path: str | os.PathLike) -> None:
 
 def load_recipes(path: str | os.PathLike) -> pd.DataFrame:
     """Read `recipes.parquet`; a missing or broken file raises ValueError naming it."""
-    try:
-        frame = pd.read_parquet(path)
-    except FileNotFoundError:
-        raise ValueError(f"{path}: file not found; run the sample step first") from None
-    except Exception as exc:  # pyarrow raises several types for a broken file
-        raise ValueError(
-            f"{path}: not a readable parquet file ({' '.join(str(exc).split())})"
-        ) from None
+    frame = read_parquet(path, "run the sample step")
     missing = [c for c in META_COLUMNS if c not in frame]
     if missing:
-        raise ValueError(f"{path}: no column {missing[0]!r}; rerun the sample step")
+        raise UserError(path, f"no column {missing[0]!r}", "rerun the sample step")
     return frame
 
 

@@ -19,9 +19,9 @@ from geocode import meshio
 EXTENSION_ID = "geocode_nodes"
 SOURCE = Path(__file__).with_name("extension") / "__init__.py"
 # catalogue module -> the Add menu's category (the paper's names for them)
-CATEGORIES = {"curves": "Curves", "profiles": "Profiles", "styles": "Styles",
-              "attachment": "Sampling", "symmetry": "Symmetry", "parts": "Meshes",
-              "utils": "Utilities"}
+CATEGORIES = {"curves": "Curves", "profiles": "Profiles", "styles": "Styles", "shells": "Styles",
+              "surfaces": "Surfaces", "attachment": "Sampling", "symmetry": "Symmetry",
+              "parts": "Meshes", "utils": "Utilities"}
 MANIFEST = """schema_version = "1.0.0"
 id = "{id}"
 version = "{version}"

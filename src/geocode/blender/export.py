@@ -14,6 +14,7 @@ import numpy as np
 import yaml
 
 from geocode import meshio
+from geocode.errors import UserError, one_line
 from geocode.timing import Progress, Stopwatch
 
 log = logging.getLogger(__name__)
@@ -60,7 +61,12 @@ def part_labels(mesh) -> np.ndarray:
 
 
 def is_complete(shapes_dir: Path, shape_id: str) -> bool:
-    return all((shapes_dir / f"{shape_id}{s}").exists() for s in SUFFIXES)
+    """All four files are there and none is empty (a rerun redoes a shape with a broken one)."""
+    for suffix in SUFFIXES:
+        path = shapes_dir / f"{shape_id}{suffix}"
+        if not path.is_file() or path.stat().st_size == 0:
+            return False
+    return True
 
 
 def export_shape(program, recipe, shape_id: str, values: Mapping[str, float], shapes_dir: Path) -> None:
@@ -70,7 +76,7 @@ def export_shape(program, recipe, shape_id: str, values: Mapping[str, float], sh
     try:
         mesh = unit_mesh(program, full)
     except ValueError as exc:
-        raise ValueError(f"{shape_id}: {exc}") from None
+        raise UserError(shape_id, one_line(exc, 300), "fix the program or narrow its recipe") from None
     parts = part_labels(mesh)
     yaml_dump = lambda d: yaml.safe_dump(d, sort_keys=False)  # noqa: E731
     meshio.write_text(shapes_dir / f"{shape_id}.yaml", yaml_dump(typed(program.parameters, full)))

@@ -10,6 +10,7 @@ from pathlib import Path
 
 from geocode import meshio
 from geocode.blender.export import load_program, random_rows, unit_mesh
+from geocode.errors import UserError, one_line
 from geocode.timing import Progress, Stopwatch
 
 log = logging.getLogger(__name__)
@@ -33,7 +34,7 @@ def rebuild(domain: str, rows: Iterable[tuple[str, Mapping[str, float]]], out_di
             try:
                 mesh = unit_mesh(program, values)
             except ValueError as exc:
-                raise ValueError(f"rebuild {domain} {key}: {exc}") from None
+                raise UserError(f"rebuild {domain} {key}", one_line(exc, 300), "check the predictions file") from None
             meshio.write_obj(path, mesh)
         paths.append(path)
         progress.step()

@@ -10,13 +10,14 @@ from __future__ import annotations
 
 import math
 import os
-import signal
 import sys
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+
+from geocode.errors import signals_deferred
 
 MARGIN = 1.05          # image half-width in unit-sphere radii
 DISTANCE = 3.0         # camera distance from the origin (outside the unit sphere)
@@ -132,24 +133,6 @@ def quiet_stdout():
         os.dup2(saved, 1)
         os.close(saved)
         os.close(devnull)
-
-
-@contextmanager
-def signals_deferred():
-    """Deliver SIGINT and SIGTERM only when the block ends. Freestyle runs Python stroke
-    shaders in the middle of a render: a KeyboardInterrupt raised there is swallowed and the
-    render 'finishes' without strokes, so a blank image would take a finished file's name.
-    Deferred, the signal arrives right after the render, before anything is renamed."""
-    caught: list[int] = []
-    previous = {sig: signal.signal(sig, lambda signum, _: caught.append(signum))
-                for sig in (signal.SIGINT, signal.SIGTERM)}
-    try:
-        yield
-    finally:
-        for sig, handler in previous.items():
-            signal.signal(sig, handler)
-        if caught:
-            signal.raise_signal(caught[0])
 
 
 def render_still(scene, tmp: Path) -> Path:

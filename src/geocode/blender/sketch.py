@@ -39,6 +39,7 @@ from geocode.blender.scene import (  # noqa: F401 (Camera, MARGIN re-exported fo
     render_still,
     set_mesh_data,
 )
+from geocode.errors import UserError
 from geocode.seeds import generator
 from geocode.timing import Progress
 
@@ -176,7 +177,23 @@ def sketch_mesh(mesh, out_paths: Mapping[str, str | Path], cameras: Sequence[Cam
 
 
 def read_ids(path: str | Path) -> list[str]:
-    return [line.strip() for line in Path(path).read_text().splitlines() if line.strip()]
+    """The shape ids a stage's done file lists (the export step writes the one others read)."""
+    path = Path(path)
+    if not path.is_file():
+        raise UserError(path, "missing", "run the export step for this shard first")
+    return [line.strip() for line in path.read_text().splitlines() if line.strip()]
+
+
+def is_sketch(path: Path) -> bool:
+    """Whether `path` holds a decodable PNG: a rerun redoes empty or broken views."""
+    from PIL import Image
+
+    try:
+        with Image.open(path) as image:
+            image.verify()
+    except (OSError, SyntaxError, ValueError):  # PIL's verify() raises SyntaxError on bad chunks
+        return False
+    return True
 
 
 def sketch_shard(split_dir: str | Path, shard: int, cameras: Sequence[Camera | Mapping] = DEFAULT_CAMERAS,
@@ -193,9 +210,9 @@ def sketch_shard(split_dir: str | Path, shard: int, cameras: Sequence[Camera | M
     progress = Progress(f"sketch shard {shard}", len(ids) * len(cameras), log)
     for shape_id in ids:
         paths = {c.name: out_dir / f"{shape_id}_{c.name}.png" for c in cameras}
-        todo = [c for c in cameras if not paths[c.name].exists()]
+        todo = [c for c in cameras if not is_sketch(paths[c.name])]
         if todo:
-            mesh = meshio.read_obj(split_dir / "shapes" / f"{shape_id}.obj")
+            mesh = meshio.read_obj(split_dir / "shapes" / f"{shape_id}.obj", meshio.REDO_EXPORT)
             sketch_mesh(mesh, paths, todo, shape_id, seed, jitter, size)
         progress.step(len(cameras))
     progress.finish()

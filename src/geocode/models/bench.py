@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import torch
 
+from geocode.errors import UserError
 from geocode.models.dgcnn import DGCNN, DGCNNReference
 from geocode.models.module import GeoCodeModule
 from geocode.timing import Stopwatch, seconds_per_call
@@ -114,9 +115,9 @@ def _device(name: str) -> torch.device:
     if name == "auto":
         return torch.device("cuda" if torch.cuda.is_available() else "cpu")
     if name not in ("cpu", "cuda"):
-        raise ValueError(f"--device {name}: use auto, cpu or cuda")
+        raise UserError(f"--device {name}", "unknown device", "use auto, cpu or cuda")
     if name == "cuda" and not torch.cuda.is_available():
-        raise ValueError("--device cuda: torch sees no CUDA GPU here; use --device cpu or auto")
+        raise UserError("--device cuda", "torch sees no CUDA GPU here", "use --device cpu or auto")
     return torch.device(name)
 
 
