@@ -51,11 +51,8 @@ LEG_INSET = 1.2        # legs stand this many leg radii inside the body's corner
 
 
 def _parameters(g: Graph) -> dict:
-    p = {}
-
-    def add(name, kind, default, low, high, description):
-        p[name] = g.input(name, kind, default=default, min=low, max=high,
-                          description=description)
+    p = g.parameters()
+    add = p.add
 
     # body
     add("width", "float", 0.8, 0.45, 1.2, "width of the body at its bottom")

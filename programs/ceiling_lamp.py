@@ -55,11 +55,8 @@ ARM_ARCH = 0.2
 
 
 def _parameters(g: Graph) -> dict:
-    p = {}
-
-    def add(name, kind, default, low, high, description):
-        p[name] = g.input(name, kind, default=default, min=low, max=high,
-                          description=description)
+    p = g.parameters()
+    add = p.add
 
     add("canopy_radius", "float", 0.08, 0.05, 0.14, "half-width of the canopy on the ceiling")
     add("canopy_height", "float", 0.03, 0.02, 0.06, "height of the canopy")

@@ -53,11 +53,8 @@ ARM_LOOP_BULGE = 0.35    # bulge of a loop armrest, as a share of its chord
 
 
 def _parameters(g: Graph) -> dict:
-    p = {}
-
-    def add(name, kind, default, low, high, description):
-        p[name] = g.input(name, kind, default=default, min=low, max=high,
-                          description=description)
+    p = g.parameters()
+    add = p.add
 
     for axis in "xyz":
         add(f"scale_{axis}", "float", 1.0, 0.8, 1.25, f"overall scale along {axis}")

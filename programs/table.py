@@ -38,11 +38,8 @@ UP = (0.0, 0.0, 1.0)     # bars keep their profile's X vertical
 
 
 def _parameters(g: Graph) -> dict:
-    p = {}
-
-    def add(name, kind, default, low, high, description):
-        p[name] = g.input(name, kind, default=default, min=low, max=high,
-                          description=description)
+    p = g.parameters()
+    add = p.add
 
     # top
     add("top_height", "float", 0.75, 0.6, 0.85, "height of the top's upper face")

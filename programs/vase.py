@@ -107,11 +107,8 @@ class _Body:
 
 
 def _parameters(g: Graph) -> dict:
-    p = {}
-
-    def add(name, kind, default, low, high, description):
-        p[name] = g.input(name, kind, default=default, min=low, max=high,
-                          description=description)
+    p = g.parameters()
+    add = p.add
 
     add("body_height", "float", 1.0, 0.6, 1.6, "height of the body")
     add("base_width", "float", 0.3, 0.15, 0.5, "half-width of the body at its base")

@@ -23,11 +23,8 @@ LEG_REACH = 0.6   # legs start at this share of the seat's half-width from the a
 
 
 def _parameters(g: Graph) -> dict:
-    p = {}
-
-    def add(name, kind, default, low, high, description):
-        p[name] = g.input(name, kind, default=default, min=low, max=high,
-                          description=description)
+    p = g.parameters()
+    add = p.add
 
     add("seat_height", "float", 0.6, 0.45, 0.8, "height of the seat's top")
     add("seat_width", "float", 0.35, 0.28, 0.45, "width of the seat")

@@ -202,6 +202,20 @@ class _Level:
         self.exported: dict = {}    # inner socket pointer -> the group node's output socket
 
 
+class Parameters(dict):
+    """A program's parameters by name (their sockets), in the order they were added."""
+
+    def __init__(self, graph: Graph):
+        super().__init__()
+        self.graph = graph
+
+    def add(self, name: str, kind: str, default: Value, low: float, high: float,
+            description: str) -> Socket:
+        self[name] = self.graph.input(name, kind, default=default, min=low, max=high,
+                                      description=description)
+        return self[name]
+
+
 class Graph:
     """Builder over one geometry node tree.
 
@@ -378,6 +392,11 @@ class Graph:
             item.default_value = tuple(default) if kind == "vector" else default
         return Socket(self, find_socket(self._io_node(self._open[-1], "NodeGroupInput").outputs,
                                         item.identifier, self.tree))
+
+    def parameters(self) -> Parameters:
+        """An empty table of a program's parameters: `add(name, kind, default, min, max,
+        meaning)` declares each as a group input, the one place its range is written."""
+        return Parameters(self)
 
     def output(self, name: str, kind: str, value: Value) -> None:
         """Expose a group output named `name` and connect `value` to it."""
