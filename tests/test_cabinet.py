@@ -7,7 +7,7 @@ import trimesh
 
 pytest.importorskip("bpy")
 
-from geocode.program import Program, programs_dir  # noqa: E402
+from geocode.program import programs_dir  # noqa: E402
 from geocode.recipe import Recipe  # noqa: E402
 from geocode.stability import loose_parts  # noqa: E402
 
@@ -18,18 +18,12 @@ PLAIN = {"base_style": 0, "top_board": 0, "drawer_rows": 3, "drawer_columns": 2,
          "door_rows": 1, "door_columns": 2, "handle_style": 1}
 
 
-@pytest.fixture(scope="module")
-def cabinet():
-    import bpy
-
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    return Program.load("cabinet")
+DOMAIN = "cabinet"   # the conftest's `program` and `label` fixtures build it
 
 
 @pytest.fixture(scope="module")
-def label(cabinet):
-    """Part label constants of the program module (BODY, DRAWERS, ...)."""
-    return cabinet._module
+def cabinet(program):
+    return program
 
 
 def _only(mesh, *labels):

@@ -9,7 +9,7 @@ import pytest
 
 pytest.importorskip("bpy")
 
-from geocode.program import Program, programs_dir  # noqa: E402
+from geocode.program import programs_dir  # noqa: E402
 from geocode.recipe import Recipe  # noqa: E402
 from geocode.stability import loose_parts  # noqa: E402
 
@@ -19,18 +19,12 @@ pytestmark = pytest.mark.blender
 HANGERS = ("CANOPY", "ROD", "HUB", "ARMS", "SOCKETS")
 
 
-@pytest.fixture(scope="module")
-def lamp():
-    import bpy
-
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    return Program.load("ceiling_lamp")
+DOMAIN = "ceiling_lamp"   # the conftest's `program` and `label` fixtures build it
 
 
 @pytest.fixture(scope="module")
-def label(lamp):
-    """Part label constants of the program module (CANOPY, SHADES, ...)."""
-    return lamp._module
+def lamp(program):
+    return program
 
 
 def _digest(mesh) -> str:
