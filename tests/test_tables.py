@@ -160,3 +160,16 @@ def test_stability_of_a_domain_that_hangs_is_not_applicable(tmp_path):
     assert list(s.loc["ceiling_lamp", ["GT", "PC pred", "sketch pred"]]) == ["n/a"] * 3
     write_tables(frame, CAMERAS, tmp_path, "smoke")
     assert "| ceiling_lamp | n/a |" in (tmp_path / "stability.md").read_text()
+
+
+def test_fitted_clouds_are_a_column_and_rows_apart_from_the_paper_method():
+    fitted = [row("pc+fit", 0.0005, i=0), row("pc+fit", 0.0015, i=1), row("pc+fit", 0.004, noise=0.02),
+              row("pc+fit", 0.006, sparse=512), row("pc+fit", 0.001, source="s10")]
+    tables = build_tables(pd.concat([metrics(), pd.DataFrame(fitted)]), CAMERAS)
+    t = tables["pc_vs_sketch"]
+    assert t.loc["vase", "pc"] == 0.002 and t.loc["vase", "pc + fit"] == pytest.approx(0.001)
+    assert t.loc["vase", "pc + fit n"] == 2 and np.isnan(t.loc["vase", "pc + fit (paper)"])
+    assert tables["noise"].loc["vase", "0.02"] == 0.005 and tables["noise"].loc["vase + fit", "0.02"] == 0.004
+    assert tables["sparse"].loc["vase + fit", "512"] == 0.006
+    assert tables["simplified"].loc["vase pc + fit", "1/10"] == 0.001
+    assert "pc + fit" not in build_tables(metrics(), CAMERAS)["pc_vs_sketch"]   # only where the run fitted

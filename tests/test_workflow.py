@@ -103,6 +103,11 @@ def test_smoke_run_reaches_the_tables(smoke_run):
     assert np.isfinite(frame.loc["vase", "pc"]) and frame.loc["vase", "pc"] > 0
     assert frame.loc["vase", "pc (paper)"] == 0.00264
     assert "vase mean-shape baseline" in frame.index
+    # the smoke profile fits the clean clouds' predictions: never further from the input
+    assert frame.loc["vase", "pc + fit n"] == 4
+    fits = pd.concat(pd.read_parquet(p) for p in (smoke_run / "runs" / "smoke" / "vase" / "joint" / "eval"
+                                                  / "rebuilt").glob("fit-*.parquet"))
+    assert len(fits) == 4 and (fits.after <= fits.before).all() and (fits.evaluations <= 20).all()
     for name in ("camera_angles", "simplified", "sparse", "noise", "stability"):
         assert (tables / f"{name}.md").exists(), name
     assert "profile smoke" in (tables / "pc_vs_sketch.md").read_text()

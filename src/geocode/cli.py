@@ -187,6 +187,13 @@ def parser() -> argparse.ArgumentParser:
     c.add_argument("overrides", nargs="*", metavar="key=value", help="fit: the run's config (e.g. profile=smoke)")
     c.set_defaults(run=cmd_bench)
 
+    c = sub.add_parser("timings", help="where the last workflow run of a profile spent its time, per stage and domain")
+    c.add_argument("--profile", default="mini", help="the run's profile (default: mini)")
+    c.add_argument("--metadata", type=Path, default=Path(".snakemake/metadata"),
+                   help="Snakemake's records of the outputs (in the folder the run started from)")
+    c.add_argument("--json", action="store_true")
+    c.set_defaults(run=cmd_timings)
+
     step = "pipeline step; takes Hydra overrides key=value"
     c = sub.add_parser("sample", help=f"sample the recipes of every split ({step})")
     c.set_defaults(run=cmd_sample)
@@ -363,6 +370,20 @@ def cmd_bench(args):
     from geocode.evaluation import bench_eval
 
     return bench_eval(args.domain)
+
+
+def cmd_timings(args):
+    from geocode.config import registry
+    from geocode.timing import run_summary, run_times
+
+    if not args.metadata.is_dir():
+        raise UserError(args.metadata, "no Snakemake records here", "run it in the folder the workflow ran from")
+    jobs = run_times(args.metadata, args.profile, list(registry()))
+    if not args.json:
+        return run_summary(jobs)
+    minutes = jobs.pivot_table(index="rule", columns="domain", values="seconds", aggfunc="sum") / 60
+    return {"wall_min": round((jobs.end.max() - jobs.start.min()) / 60, 2) if len(jobs) else 0.0, "jobs": len(jobs),
+            "minutes": {r: {d: round(v, 2) for d, v in row.dropna().items()} for r, row in minutes.iterrows()}}
 
 
 # -- pipeline steps -------------------------------------------------------------------------

@@ -161,6 +161,7 @@ SETTINGS = {key: Setting(meaning, *rule) for key, (meaning, rule) in {
     "model.sketch_pool": ("adaptive average pooling grid before the sketch encoder's linear layer", _whole(1)),
     "model.hidden": ("widths of each decoder's hidden layers", _each(_whole(1))),
     "model.dropout": ("decoder dropout probability", _number(0, 1)),
+    "model.embedding_norm": ("a BatchNorm per modality on the encoders' embeddings", _FLAG),
     "model.fast": ("the fast exact EdgeConv (false: the reference implementation)", _FLAG),
     "train.max_epochs": ("training epochs", _whole(1)),
     "train.batch_size": ("items per batch", _whole(1)),
@@ -204,7 +205,9 @@ SETTINGS = {key: Setting(meaning, *rule) for key, (meaning, rule) in {
     "eval.variants": ("model variants the workflow trains and evaluates", _each(_NAME)),
     "eval.ablations": ("decoder ablations trained for the ablation domains", _each(_NAME)),
     "eval.ablation_domains": ("domains whose ablations are trained (the paper: the chair)", _each(_NAME)),
-    "eval.fit_budget": ("program evaluations of `geocode reconstruct --refine` for clouds", _whole(0)),
+    "eval.fit_budget": ("program evaluations of a fit (`geocode reconstruct --refine`, eval.fit)", _whole(0)),
+    "eval.fit": ("point-cloud test conditions (pc, pc-noise0.02, ...) whose predictions are also fitted: "
+                 "a '+ fit' row or column", _each(_NAME)),
 }.items()}
 
 
@@ -268,9 +271,19 @@ def _check_known(cfg: DictConfig) -> None:
         if target not in targets:
             raise ConfigError(f"_target_={target}", "not one of the project's model classes",
                               f"use {', '.join(sorted(targets))} (choose the variant with model=<name>)")
+    _check_fit(cfg)
     camera = cfg.train.eval_camera
     if camera is not None and camera not in [c.name for c in cfg.data.sketch.cameras if c.get("train", False)]:
         raise ConfigError(f"train.eval_camera={camera}", "not a training camera", "name one with train: true, or null")
+
+
+def _check_fit(cfg: DictConfig) -> None:
+    from geocode.evaluation import conditions
+
+    clouds = [c["condition"] for c in conditions(cfg) if c["modality"] == "pc"]
+    for name in cfg.eval.fit:
+        if name not in clouds:
+            raise ConfigError(f"eval.fit={name}", "not a point-cloud test condition", f"use some of {', '.join(clouds)}")
 
 
 def _targets(node) -> list[str]:

@@ -38,6 +38,8 @@ log = logging.getLogger("geocode.evaluation")
 
 KEYS = ["condition", "modality", "source", "camera", "noise", "sparse", "id"]
 MODALITY_NAMES = {"points": "pc", "sketch": "sketch"}  # the model's inputs -> metrics' modality
+FITTED = "pc+fit"       # the modality of a cloud's prediction refined by `geocode.fit`
+OPTIONS = "fit_options"  # predictions' column: JSON of each discrete parameter's candidate values
 
 
 def robustness(variant: str) -> bool:
@@ -66,7 +68,17 @@ def conditions(cfg: DictConfig, modalities=("pc", "sketch"), full: bool = True) 
     out += [cond("pc", sparse=n) for n in cfg.eval.sparse]
     for f in cfg.eval.simplify:
         out += [cond("pc", source=f"s{f}")] + [cond("sketch", source=f"s{f}", camera=c) for c in trained]
-    return out
+    return out + [fitted(c) for c in out if c["condition"] in cfg.eval.fit]
+
+
+def fitted(cond: dict) -> dict:
+    """The condition of a point-cloud condition's predictions refined by the fit."""
+    return {**cond, "condition": f"{cond['condition']}-fit", "modality": FITTED}
+
+
+def unfitted(cond: dict) -> dict:
+    """The inverse of `fitted`: the condition whose clouds the fit matches."""
+    return {**cond, "condition": cond["condition"].removesuffix("-fit"), "modality": "pc"}
 
 
 def test_ids(cfg: DictConfig, domain: str) -> list[str]:
@@ -125,6 +137,7 @@ def sketch_path(cfg: DictConfig, domain: str, cond: dict, shape_id: str) -> Path
 def predict_step(cfg: DictConfig, domain: str, checkpoint: Path, out: Path) -> str:
     """Predict every condition's test inputs, denormalise, and write one parquet of values."""
     from geocode.recipe import load_recipe
+    from geocode.reconstruct import ranked_prediction
     from geocode.train import load_model, predict_classes
     from geocode.training_data import load_sketch
 
@@ -136,15 +149,17 @@ def predict_step(cfg: DictConfig, domain: str, checkpoint: Path, out: Path) -> s
     frames = []
     for cond in conditions(cfg, modalities, full):
         start = time.perf_counter()
-        if cond["modality"] == "pc":
+        if cond["modality"] == FITTED:  # the fit's start: the prediction and its likeliest classes
+            ranked = [ranked_prediction(model, recipe, "points", point_input(cfg, domain, unfitted(cond), i))
+                      for i in ids]
+            frame = pd.DataFrame([values for values, _ in ranked])
+            frame[OPTIONS] = [json.dumps(options) for _, options in ranked]
+        elif cond["modality"] == "pc":
             batch = np.stack([point_input(cfg, domain, cond, i) for i in ids])
-            classes = predict_classes(model, points=batch)
+            frame = pd.DataFrame(predicted_values(model, recipe, predict_classes(model, points=batch)))
         else:
             batch = np.stack([load_sketch(sketch_path(cfg, domain, cond, i)) for i in ids])
-            classes = predict_classes(model, sketches=batch)
-        values = [recipe.values_from_classes(dict(zip(model.parameter_names, row, strict=True)))
-                  for row in classes.tolist()]
-        frame = pd.DataFrame(values)
+            frame = pd.DataFrame(predicted_values(model, recipe, predict_classes(model, sketches=batch)))
         frames.append(frame.assign(**cond, id=ids))
         log.info("%s: %d shapes in %.1f s", cond["condition"], len(ids), time.perf_counter() - start)
     if full:
@@ -152,6 +167,12 @@ def predict_step(cfg: DictConfig, domain: str, checkpoint: Path, out: Path) -> s
     table = pd.concat(frames, ignore_index=True)
     write_parquet(out, table[KEYS + [c for c in table.columns if c not in KEYS]])
     return f"{domain}: {len(table)} predictions"
+
+
+def predicted_values(model, recipe, classes: np.ndarray) -> list[dict[str, float]]:
+    """Class indices (N, P) -> raw values per shape."""
+    return [recipe.values_from_classes(dict(zip(model.parameter_names, row, strict=True)))
+            for row in classes.tolist()]
 
 
 def mean_shape(cfg: DictConfig, domain: str, recipe) -> pd.DataFrame:
@@ -179,16 +200,41 @@ def read_predictions(path: Path) -> pd.DataFrame:
 # -- rebuilding ---------------------------------------------------------------------------------
 
 def rebuild_step(cfg: DictConfig, domain: str, predictions: Path, shard: int) -> str:
-    """Rebuild every n-th prediction with the program: <eval>/rebuilt/<condition>/<id>.obj."""
+    """Rebuild every n-th prediction with the program: <eval>/rebuilt/<condition>/<id>.obj.
+    Fitted conditions are fitted first, from the prediction, to the condition's input cloud;
+    their distances before and after and the time go to rebuilt/fit-<shard>.parquet."""
     from geocode.blender.rebuild import rebuild
+    from geocode.program import Program
 
+    program = Program.load(domain)
+    recipe = program.recipe()
     table = read_predictions(predictions).iloc[shard::cfg.data.shards]
-    names = [c for c in table.columns if c not in KEYS]
+    names = [c for c in table.columns if c not in KEYS + [OPTIONS]]
     out_dir = Path(predictions).parent / "rebuilt"
-    jobs = [(f"{r['condition']}/{r['id']}", {n: r[n] for n in names}) for r in table.to_dict("records")]
-    rebuild(domain, jobs, out_dir)
+    jobs, fits = [], []
+    for r in table.to_dict("records"):
+        values = {n: r[n] for n in names}
+        if r["modality"] == FITTED:
+            values, stats = fit_prediction(cfg, domain, program, recipe, r, values)
+            fits.append(stats)
+        jobs.append((f"{r['condition']}/{r['id']}", values))
+    rebuild(domain, jobs, out_dir, program=program)
+    if fits:
+        write_parquet(out_dir / f"fit-{shard}.parquet", pd.DataFrame(fits))
     write_text(out_dir / f"done-{shard}.txt", "".join(f"{key}\n" for key, _ in jobs))
-    return f"{domain}: rebuilt {len(jobs)} shapes"
+    return f"{domain}: rebuilt {len(jobs)} shapes, {len(fits)} of them fitted"
+
+
+def fit_prediction(cfg: DictConfig, domain: str, program, recipe, row: dict, values: dict) -> tuple[dict, dict]:
+    """(fitted values, the fit's record) of one prediction of a fitted condition."""
+    from geocode.fit import fit
+
+    cloud = point_input(cfg, domain, unfitted(row), row["id"])
+    result = fit(program, recipe, values, json.loads(row[OPTIONS]), cloud,
+                 cfg.eval.fit_budget, seed=cfg.seed)
+    stats = {"condition": row["condition"], "id": row["id"], "before": result.before, "after": result.after,
+             "evaluations": result.evaluations, "seconds": result.seconds}
+    return result.values, stats
 
 
 # -- metrics ----------------------------------------------------------------------------------

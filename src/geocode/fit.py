@@ -15,7 +15,6 @@ import time
 import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -134,12 +133,7 @@ def bench_fit(cfg, domain: str, n: int = 10) -> dict:
     from geocode.meshio import read_obj
     from geocode.metrics import chamfer_meshes
     from geocode.program import Program
-    from geocode.reconstruct import (
-        UserInput,
-        check_checkpoint,
-        default_checkpoint,
-        ranked_prediction,
-    )
+    from geocode.reconstruct import check_checkpoint, default_checkpoint, ranked_prediction
     from geocode.train import load_model
 
     program = Program.load(domain)
@@ -152,7 +146,7 @@ def bench_fit(cfg, domain: str, n: int = 10) -> dict:
     for shape_id in test_ids(cfg, domain)[:n]:
         cloud = point_input(cfg, domain, clean, shape_id)
         gt = read_obj(data_dir(cfg, domain, "test") / "shapes" / f"{shape_id}.obj")
-        start, options = ranked_prediction(model, recipe, UserInput(Path(shape_id), "points", cloud))
+        start, options = ranked_prediction(model, recipe, "points", cloud)
         result = fit(program, recipe, start, options, cloud, cfg.eval.fit_budget, seed=cfg.seed)
         for values, out in ((program.check(start), before), (result.values, after)):
             rng = np.random.default_rng(0)

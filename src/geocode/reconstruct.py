@@ -175,13 +175,12 @@ def check_checkpoint(model, recipe, checkpoint: Path, domain: str) -> None:
                          f"{domain!r}'s recipe; pass the checkpoint of a {domain} model")
 
 
-def ranked_prediction(model, recipe, user_input: UserInput, k: int = TOP_CLASSES):
+def ranked_prediction(model, recipe, modality: str, data: np.ndarray, k: int = TOP_CLASSES):
     """(raw values of the most probable classes, {discrete parameter: its k most probable
-    raw values}) for one input."""
+    raw values}) for one input of a modality (points (N, 3) or sketch (1, H, W))."""
     import torch
 
-    modality = "points" if user_input.kind == "points" else "sketch"
-    x = torch.as_tensor(user_input.data[None], dtype=torch.float32)
+    x = torch.as_tensor(data[None], dtype=torch.float32)
     with torch.inference_mode():
         outputs = model(**{"points" if modality == "points" else "sketches": x})[modality]
         best = model.classes(outputs, modality)[0].tolist()
@@ -223,7 +222,7 @@ def reconstruct(cfg, domain: str, input_path: Path, out_dir: Path,
     recipe = program.recipe()
     model = load_model(checkpoint)
     check_checkpoint(model, recipe, checkpoint, domain)
-    start, options = ranked_prediction(model, recipe, user_input)
+    start, options = ranked_prediction(model, recipe, user_input.kind, user_input.data)
     if refine is None:
         refine = cfg.eval.fit_budget if user_input.kind == "points" else 0
     summary = {"input": str(input_path), "kind": user_input.kind, "checkpoint": str(checkpoint)}

@@ -1,13 +1,18 @@
 """Clocks for long loops and benchmarks (no bpy): progress lines with rate and ETA, a
-stopwatch, and the time per call of a function."""
+stopwatch, the time per call of a function, and where a workflow run spent its time."""
 
 from __future__ import annotations
 
+import base64
+import json
 import logging
+import re
 import time
 from collections.abc import Callable
+from pathlib import Path
 
 import numpy as np
+import pandas as pd
 
 
 class Stopwatch:
@@ -63,3 +68,44 @@ class Progress:
         rate = self.rate()
         left = (self.total - self.done) / rate if rate > 0 else float("nan")
         self.log.info("%s: %d/%d, %.2f/s, ETA %.0f s", self.label, self.done, self.total, rate, left)
+
+
+def run_times(metadata: str | Path, profile: str, domains: list[str]) -> pd.DataFrame:
+    """Seconds per job of the last Snakemake run of a profile, from Snakemake's record of each
+    output (`.snakemake/metadata/`: rule, start and end time): one row per job with its rule,
+    domain ("-" for a job of every domain), start, end and seconds."""
+    jobs = {}
+    for path in Path(metadata).glob("*"):
+        try:
+            record = json.loads(path.read_text())
+            output = base64.b64decode(path.name).decode()
+        except (ValueError, UnicodeDecodeError, OSError):
+            continue   # not a record of an output
+        places = [output, *(record.get("log") or [])]
+        if "starttime" not in record or not any(profile in Path(p).parts for p in places):
+            continue
+        parts = [piece for p in places for part in Path(p).parts for piece in re.split(r"[.-]", part)]
+        domain = next((d for d in parts if d in domains), "-")
+        start, end = float(record["starttime"]), float(record["endtime"])
+        jobs[(record["rule"], record.get("job_hash"), start)] = dict(rule=record["rule"], domain=domain,
+                                                                     start=start, end=end, seconds=end - start)
+    return pd.DataFrame(list(jobs.values()), columns=["rule", "domain", "start", "end", "seconds"])
+
+
+def run_summary(jobs: pd.DataFrame) -> str:
+    """Markdown: minutes of job time per stage (rows, in the order they ran) and domain
+    (columns), and the run's wall-clock span."""
+    if jobs.empty:
+        return "no finished jobs recorded for this profile\n"
+    order = jobs.groupby("rule").start.min().sort_values().index
+    minutes = jobs.pivot_table(index="rule", columns="domain", values="seconds", aggfunc="sum", fill_value=0) / 60
+    minutes = minutes.reindex(order)
+    minutes["all"] = minutes.sum(axis=1)
+    minutes.loc["all"] = minutes.sum()
+    span = (jobs.end.max() - jobs.start.min()) / 60
+    head = "| stage | " + " | ".join(minutes.columns) + " |"
+    lines = [f"Wall clock, first job's start to last job's end: {span:.1f} min over {len(jobs)} jobs.",
+             "Minutes of job time (jobs overlap: with -j2 two run at once):", "", head,
+             "|---" * (len(minutes.columns) + 1) + "|"]
+    lines += [f"| {r} | " + " | ".join(f"{v:.1f}" for v in row) + " |" for r, row in minutes.iterrows()]
+    return "\n".join(lines) + "\n"

@@ -61,6 +61,7 @@ class Branch(nn.Module):
         hidden: Sequence[int],
         dropout: float,
         fast: bool,
+        embedding_norm: bool = False,
     ) -> None:
         super().__init__()
         dgcnn = DGCNN if fast else DGCNNReference
@@ -68,6 +69,9 @@ class Branch(nn.Module):
             self.points = dgcnn(k=k, channels=edge_channels, out_channels=point_channels)
         if "sketch" in modalities:
             self.sketch = VGGSketchEncoder(sketch_channels, out_dim=2 * point_channels, pool_size=sketch_pool)
+        # A BatchNorm per modality on its embedding: shared decoders then read inputs of one
+        # scale (a DGCNN pools rectified features; the sketch encoder ends with a linear layer).
+        self.norms = nn.ModuleDict({m: nn.BatchNorm1d(2 * point_channels) for m in modalities} if embedding_norm else {})
         keys = modalities if separate else ("common",)
         self.decoders = nn.ModuleDict(
             {key: Decoders(specs, 2 * point_channels, hidden, dropout, regression) for key in keys}
@@ -79,6 +83,7 @@ class Branch(nn.Module):
     def forward(self, points=None, sketches=None) -> dict[str, dict[str, torch.Tensor]]:
         embeddings = {m: getattr(self, m)(x)
                       for m, x in (("points", points), ("sketch", sketches)) if x is not None}
+        embeddings = {m: self.norms[m](e) if m in self.norms else e for m, e in embeddings.items()}
         if "common" not in self.decoders:
             return {m: self.decoders[m](e) for m, e in embeddings.items()}
         # Shared decoders see both modalities in one batch: their BatchNorm then normalises
@@ -129,6 +134,7 @@ class GeoCodeModule(pl.LightningModule):
         hidden: Sequence[int] = (128, 64),
         dropout: float = 0.5,
         fast: bool = True,
+        embedding_norm: bool = False,
         lr: float = 1e-2,
         step_size: int = 20,
         gamma: float = 0.9,
@@ -144,7 +150,7 @@ class GeoCodeModule(pl.LightningModule):
         self.save_hyperparameters(
             {"heads": heads, "variant": variant, "k": k, "edge_channels": list(edge_channels),
              "point_channels": point_channels, "sketch_channels": list(sketch_channels),
-             "sketch_pool": sketch_pool, "hidden": list(hidden), "dropout": dropout, "fast": fast,
+             "sketch_pool": sketch_pool, "hidden": list(hidden), "dropout": dropout, "fast": fast, "embedding_norm": embedding_norm,
              "lr": lr, "step_size": step_size, "gamma": gamma, "schedule": schedule,
              "warmup_epochs": warmup_epochs, "modalities": modalities}
         )
@@ -153,7 +159,7 @@ class GeoCodeModule(pl.LightningModule):
         self.columns = {name: j for j, name in enumerate(self.parameter_names)}
         self.branches = nn.ModuleList(
             Branch(group, modalities, sep, reg, k, edge_channels, point_channels, sketch_channels, sketch_pool,
-                   hidden, dropout, fast)
+                   hidden, dropout, fast, embedding_norm)
             for group, sep, reg in branch_layout(variant, heads)
         )
 
