@@ -343,3 +343,24 @@ def test_bench_epoch_counts_the_steps_of_an_epoch():
     assert out["epoch_s"] > 0 and out["device"] == "cpu"
     huang = bench_epoch(clouds=5, sketches=10, batch=2, device="cpu", n_points=64, n_heads=3, variant="huang")
     assert huang["clouds"] == 0 and huang["sketches"] == 12
+
+
+def test_embedding_norm_gives_the_shared_decoders_each_modality_standardised():
+    """A DGCNN pools rectified features and the sketch encoder ends in a linear layer: their
+    embeddings differ in scale. With `embedding_norm` each modality's embedding is batch-
+    normalised on its own before the shared decoders (docs/fidelity.md)."""
+    torch.manual_seed(0)
+    seen = []
+    for norm in (False, True):
+        model = GeoCodeModule(HEADS, variant="joint", embedding_norm=norm).train()
+        head = next(iter(model.branches[0].decoders["common"].heads.values()))
+        head[0].register_forward_hook(lambda m, i, out: seen.append(i[0]))
+        with torch.no_grad():
+            model(torch.randn(6, 60, 3) * 5, torch.rand(6, 1, 64, 64))
+    plain, normed = seen[0], seen[1]
+    assert set(model.branches[0].norms) == {"points", "sketch"}
+    for part in normed.split([6, 6]):          # points, then sketches: each zero mean, unit variance
+        torch.testing.assert_close(part.mean(dim=0), torch.zeros(part.shape[1]), atol=1e-5, rtol=0)
+        torch.testing.assert_close(part.var(dim=0, unbiased=False), torch.ones(part.shape[1]), atol=0.02, rtol=0)  # eps
+    assert not torch.allclose(plain[:6].mean(dim=0), plain[6:].mean(dim=0), atol=0.1)   # unlike without
+    assert len(GeoCodeModule(HEADS, variant="huang").branches[0].norms) == 0

@@ -171,3 +171,18 @@ def test_blend_reopens_with_the_values_set(files, tmp_path):
     saved = json.loads(line[len("RESULT "):])
     for name, value in values.items():
         assert saved[name] == pytest.approx(float(value), abs=1e-5), name
+
+
+def test_thick_strokes_are_thinned_and_thin_ones_kept(tmp_path):
+    """A drawing with a 16 px outline and a 2 px detail: the outline comes out about 2 px
+    wide, and the detail survives (erosion to the outline's width would erase it)."""
+    image = np.full((400, 400), 255, np.uint8)
+    image[40:360, 40:56] = image[40:360, 344:360] = image[40:56, 40:360] = image[344:360, 40:360] = 0
+    image[100:300, 199:201] = 0                             # the detail: a 2 px line inside
+    Image.fromarray(image).save(tmp_path / "box.png")
+    ink = sketch_from_image(tmp_path / "box.png")[0] == 0
+    assert ink[:, 100:124].any(axis=1).sum() > 80           # the detail's column is still drawn
+    width = 2 * np.percentile(ndimage.distance_transform_edt(ink)[ink], 90)
+    assert width <= 3
+    left = ink[112, :40]                                     # across the left outline
+    assert 1 <= left.sum() <= 3

@@ -22,18 +22,19 @@ def test_job_times_per_stage_and_domain(tmp_path, capsys):
     record(tmp_path, "results/tables", "tables", 400, 460, "logs/mini/tables.log", 5)
     record(tmp_path, "data/smoke/vase/train/done/export-0.txt", "export", 0, 9, "logs/smoke/export/vase-train-0.log", 6)
     (tmp_path / "not-base64!").write_text("{}")
-    jobs = run_times(tmp_path, "mini", ["vase", "chair"])
+    jobs = run_times(tmp_path, "mini", ["vase", "chair"], ["joint", "huang"])
     assert len(jobs) == 5                                   # one job per hash, smoke's left out
     per = jobs.groupby(["rule", "domain"]).seconds.sum()
     assert per[("export", "vase")] == 90 and per[("train", "chair")] == 240 and per[("tables", "-")] == 60
     text = run_summary(jobs)
-    assert "410" not in text and "6.8 min over 5 jobs" in text    # 50 .. 460 s
+    assert "6.8 min over 5 jobs" in text and "joint 4.0" in text    # 50 .. 460 s
     assert main(["timings", "--metadata", str(tmp_path), "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["wall_min"] == 6.83 and out["minutes"]["train"]["chair"] == 4.0
+    assert out["variant_minutes"] == {"-": 2.58, "joint": 4.0}
 
 
 def test_no_records_is_one_line(tmp_path, capsys):
     assert main(["timings", "--metadata", str(tmp_path / "none")]) == 2
     assert "no Snakemake records" in capsys.readouterr().err
-    assert "no finished jobs" in run_summary(run_times(tmp_path, "mini", ["vase"]))
+    assert "no finished jobs" in run_summary(run_times(tmp_path, "mini", ["vase"], ["joint"]))

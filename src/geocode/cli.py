@@ -373,17 +373,18 @@ def cmd_bench(args):
 
 
 def cmd_timings(args):
-    from geocode.config import registry
+    from geocode.config import group_options, registry
     from geocode.timing import run_summary, run_times
 
     if not args.metadata.is_dir():
         raise UserError(args.metadata, "no Snakemake records here", "run it in the folder the workflow ran from")
-    jobs = run_times(args.metadata, args.profile, list(registry()))
+    jobs = run_times(args.metadata, args.profile, list(registry()), group_options("model"))
     if not args.json:
         return run_summary(jobs)
     minutes = jobs.pivot_table(index="rule", columns="domain", values="seconds", aggfunc="sum") / 60
     return {"wall_min": round((jobs.end.max() - jobs.start.min()) / 60, 2) if len(jobs) else 0.0, "jobs": len(jobs),
-            "minutes": {r: {d: round(v, 2) for d, v in row.dropna().items()} for r, row in minutes.iterrows()}}
+            "minutes": {r: {d: round(v, 2) for d, v in row.dropna().items()} for r, row in minutes.iterrows()},
+            "variant_minutes": {v: round(m / 60, 2) for v, m in jobs.groupby("variant").seconds.sum().items()}}
 
 
 # -- pipeline steps -------------------------------------------------------------------------

@@ -154,14 +154,23 @@ def sketch_from_image(path: Path) -> np.ndarray:
     small = np.asarray(Image.fromarray(ink.astype(np.uint8) * 255).resize(size, Image.BOX)) / 255
     scaled_width = width * scale
     strokes = small > (0.5 if scaled_width >= STROKE else 0.2)   # keep thin strokes whole
-    thinning = round((scaled_width - STROKE) / 2)
-    if thinning > 0:
-        thin = ndimage.binary_erosion(strokes, iterations=thinning)
-        strokes = thin if thin.any() else strokes
+    reach = round(scaled_width / 2)
+    if reach > round(STROKE / 2):
+        strokes = centre_lines(strokes, reach)
     canvas = np.ones((SKETCH_SIZE, SKETCH_SIZE), dtype=np.float32)
     top, left = (SKETCH_SIZE - strokes.shape[0]) // 2, (SKETCH_SIZE - strokes.shape[1]) // 2
     canvas[top:top + strokes.shape[0], left:left + strokes.shape[1]][strokes] = 0.0
     return canvas[None]
+
+
+def centre_lines(strokes: np.ndarray, reach: int) -> np.ndarray:
+    """Strokes of any width (half-widths up to `reach` px) thinned to about the sketches'
+    2 px: a pixel stays where its distance to the background is within 1 px of the largest in
+    its neighbourhood, i.e. on its stroke's centre line. Unlike erosion, thin strokes and
+    fine details stay whole."""
+    depth = ndimage.distance_transform_edt(strokes)
+    ridge = ndimage.maximum_filter(depth, size=2 * reach + 1)
+    return strokes & (depth >= ridge - 1.0)
 
 
 # -- prediction -------------------------------------------------------------------------------

@@ -70,10 +70,11 @@ class Progress:
         self.log.info("%s: %d/%d, %.2f/s, ETA %.0f s", self.label, self.done, self.total, rate, left)
 
 
-def run_times(metadata: str | Path, profile: str, domains: list[str]) -> pd.DataFrame:
+def run_times(metadata: str | Path, profile: str, domains: list[str], variants: list[str]) -> pd.DataFrame:
     """Seconds per job of the last Snakemake run of a profile, from Snakemake's record of each
     output (`.snakemake/metadata/`: rule, start and end time): one row per job with its rule,
-    domain ("-" for a job of every domain), start, end and seconds."""
+    domain ("-" for a job of every domain), model variant ("-" for the data), start, end and
+    seconds."""
     jobs = {}
     for path in Path(metadata).glob("*"):
         try:
@@ -86,10 +87,11 @@ def run_times(metadata: str | Path, profile: str, domains: list[str]) -> pd.Data
             continue
         parts = [piece for p in places for part in Path(p).parts for piece in re.split(r"[.-]", part)]
         domain = next((d for d in parts if d in domains), "-")
+        variant = next((v for v in parts if v in variants), "-")
         start, end = float(record["starttime"]), float(record["endtime"])
-        jobs[(record["rule"], record.get("job_hash"), start)] = dict(rule=record["rule"], domain=domain,
-                                                                     start=start, end=end, seconds=end - start)
-    return pd.DataFrame(list(jobs.values()), columns=["rule", "domain", "start", "end", "seconds"])
+        jobs[(record["rule"], record.get("job_hash"), start)] = dict(
+            rule=record["rule"], domain=domain, variant=variant, start=start, end=end, seconds=end - start)
+    return pd.DataFrame(list(jobs.values()), columns=["rule", "domain", "variant", "start", "end", "seconds"])
 
 
 def run_summary(jobs: pd.DataFrame) -> str:
@@ -103,9 +105,12 @@ def run_summary(jobs: pd.DataFrame) -> str:
     minutes["all"] = minutes.sum(axis=1)
     minutes.loc["all"] = minutes.sum()
     span = (jobs.end.max() - jobs.start.min()) / 60
+    per_variant = jobs.groupby("variant").seconds.sum() / 60
     head = "| stage | " + " | ".join(minutes.columns) + " |"
     lines = [f"Wall clock, first job's start to last job's end: {span:.1f} min over {len(jobs)} jobs.",
              "Minutes of job time (jobs overlap: with -j2 two run at once):", "", head,
              "|---" * (len(minutes.columns) + 1) + "|"]
     lines += [f"| {r} | " + " | ".join(f"{v:.1f}" for v in row) + " |" for r, row in minutes.iterrows()]
+    lines += ["", "Per model variant (training and evaluation; '-': data and tables): "
+              + ", ".join(f"{v} {m:.1f}" for v, m in per_variant.items()) + " min"]
     return "\n".join(lines) + "\n"
