@@ -78,13 +78,13 @@ def test_parameter_table_marks_what_was_recovered(run):
 def gallery_page(tmp_path: Path, run, missing: bool = False) -> Path:
     out, _ = run
     rng = np.random.default_rng(0)
-    names = ("sketch", "cloud", "gt", "pc", "sketch_pred")
+    names = ("sketch", "cloud", "gt", "pc", "sketch_pred", "pc_fit")
     (tmp_path / DOMAIN).mkdir()
     for name in names:
         save_png(cloud_image(rng.normal(size=(200, 3))), tmp_path / DOMAIN / f"a_{name}.png")
     if missing:
         (tmp_path / DOMAIN / "a_pc.png").unlink()
-    row = dict(id="a", chamfer_pc=0.01, chamfer_sketch=0.02, **{n: f"{DOMAIN}/a_{n}.png" for n in names})
+    row = dict(id="a", chamfer_pc=0.01, chamfer_sketch=0.02, chamfer_fit=0.005, **{n: f"{DOMAIN}/a_{n}.png" for n in names})
     index = write_report(tmp_path, "report", "test", [{"domain": DOMAIN, "rows": [row], "training": run_training_html(out)}])
     index.write_text(index.read_text() + IMAGE_CHECK)
     return index
@@ -104,7 +104,8 @@ def test_page_loads_every_image_in_chromium(run, tmp_path, missing):
     index = gallery_page(tmp_path, run, missing)
     shot = tmp_path / "page.png"
     dom = open_in_chromium(index, shot)
-    assert ('data-images="4/5"' if missing else 'data-images="5/5"') in dom
+    assert ('data-images="5/6"' if missing else 'data-images="6/6"') in dom
+    assert "from the point cloud, fitted" in dom and "CD fitted 0.00500" in dom
     assert dom.count("<polyline") == 8  # both charts drew their four curves
     pixels = np.asarray(Image.open(shot).convert("L"))
     assert pixels.shape == (1100, 1300) and pixels.min() < 100  # something dark was drawn

@@ -102,25 +102,31 @@ def training_html(curves: pd.DataFrame, summary: dict) -> str:
     return "\n".join(out)
 
 
+GALLERY = {"sketch": "input sketch", "cloud": "input point cloud", "gt": "ground truth",
+           "pc": "from the point cloud", "sketch_pred": "from the sketch"}  # image -> column head
+
+
 def page(title: str, header: str, sections: list[dict]) -> str:
     """sections: {"domain", "training": HTML of `training_html` or "", "rows"}; a row has
     `id`, `chamfer_pc`, `chamfer_sketch` and image paths `sketch`, `cloud`, `gt`, `pc`,
-    `sketch_pred` relative to the page."""
-    cells = ("sketch", "cloud", "gt", "pc", "sketch_pred")
-    heads = ("input sketch", "input point cloud", "ground truth", "from the point cloud", "from the sketch")
+    `sketch_pred` relative to the page; where the run fitted the clouds' predictions, also
+    `chamfer_fit` and `pc_fit`."""
     out = [f"<!doctype html><meta charset='utf-8'><title>{html.escape(title)}</title>",
            "<style>body{font-family:sans-serif;margin:2em}td{text-align:center;padding:4px}"
            "img{width:180px;border:1px solid #ddd}svg.curve{margin-right:1em}"
            "td.learnt{background:#d4f4d4}td.missed{background:#f8d8d8}</style>",
            f"<h1>{html.escape(title)}</h1><p>{html.escape(header)}</p>"]
     for section in sections:
+        fitted = all("pc_fit" in r for r in section["rows"])
+        columns = {**GALLERY, **({"pc_fit": "from the point cloud, fitted"} if fitted else {})}
         out.append(f"<h2>{html.escape(section['domain'])}</h2>{section['training']}")
         out.append("<h3>Test shapes, best to worst point-cloud prediction</h3><table><tr><th>shape</th>"
-                   + "".join(f"<th>{h}</th>" for h in heads) + "</tr>")
+                   + "".join(f"<th>{h}</th>" for h in columns.values()) + "</tr>")
         for r in section["rows"]:
+            fit = f"<br>CD fitted {r['chamfer_fit']:.5f}" if fitted else ""
             out.append(f"<tr><td>{html.escape(r['id'])}<br>CD pc {r['chamfer_pc']:.5f}"
-                       f"<br>CD sketch {r['chamfer_sketch']:.5f}</td>"
-                       + "".join(f"<td><img src='{html.escape(r[c])}'></td>" for c in cells) + "</tr>")
+                       f"<br>CD sketch {r['chamfer_sketch']:.5f}{fit}</td>"
+                       + "".join(f"<td><img src='{html.escape(r[c])}'></td>" for c in columns) + "</tr>")
         out.append("</table>")
     return "\n".join(out) + "\n"
 
@@ -176,13 +182,16 @@ def report_step(cfg, metrics_files: list[Path], out_dir: Path, per_domain: int =
             shutil.copyfile(test / "sketches" / f"{shape_id}_{camera}.png", out_dir / f"{name}_sketch.png")
             cloud = point_input(cfg, domain, {"condition": "pc", "source": "test", "noise": 0, "sparse": 0}, shape_id)
             save_png(cloud_image(cloud), out_dir / f"{name}_cloud.png")
-            for tag, obj in (("gt", test / "shapes" / f"{shape_id}.obj"),
-                             ("pc", rebuilt / "pc" / f"{shape_id}.obj"),
-                             ("sketch_pred", rebuilt / f"sketch-{camera}" / f"{shape_id}.obj")):
-                render_mesh_png(read_obj(obj), out_dir / f"{name}_{tag}.png")
             cd = metrics[metrics.id == shape_id].set_index("condition").chamfer
-            rows.append(dict(id=shape_id, chamfer_pc=cd["pc"], chamfer_sketch=cd[f"sketch-{camera}"],
-                             **{t: f"{name}_{t}.png" for t in ("sketch", "cloud", "gt", "pc", "sketch_pred")}))
+            meshes = {"gt": test / "shapes" / f"{shape_id}.obj", "pc": rebuilt / "pc" / f"{shape_id}.obj",
+                      "sketch_pred": rebuilt / f"sketch-{camera}" / f"{shape_id}.obj"}
+            row = dict(id=shape_id, chamfer_pc=cd["pc"], chamfer_sketch=cd[f"sketch-{camera}"])
+            if "pc-fit" in cd:
+                meshes["pc_fit"] = rebuilt / "pc-fit" / f"{shape_id}.obj"
+                row["chamfer_fit"] = cd["pc-fit"]
+            for tag, obj in meshes.items():
+                render_mesh_png(read_obj(obj), out_dir / f"{name}_{tag}.png")
+            rows.append({**row, **{t: f"{name}_{t}.png" for t in ("sketch", "cloud", *meshes)}})
         sections.append({"domain": domain, "rows": rows, "training": run_training_html(Path(path).parents[1])})
     header = f"profile {cfg.profile_name}, config {config_hash(cfg)}; sketches from camera {camera}"
     index = write_report(out_dir, "geocode: predictions on test shapes", header, sections)
