@@ -4,7 +4,14 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from geocode.tables import STAT_SUFFIXES, bootstrap_ci, build_tables, wilcoxon_p, write_tables
+from geocode.tables import (
+    STAT_SUFFIXES,
+    bootstrap_ci,
+    build_tables,
+    trends,
+    wilcoxon_p,
+    write_tables,
+)
 
 CAMERAS = [{"name": "az35", "train": True}, {"name": "az55", "train": True}, {"name": "az15", "train": False}]
 
@@ -173,3 +180,23 @@ def test_fitted_clouds_are_a_column_and_rows_apart_from_the_paper_method():
     assert tables["sparse"].loc["vase + fit", "512"] == 0.006
     assert tables["simplified"].loc["vase pc + fit", "1/10"] == 0.001
     assert "pc + fit" not in build_tables(metrics(), CAMERAS)["pc_vs_sketch"]   # only where the run fitted
+
+
+def test_trends_get_a_verdict_only_where_the_paired_test_allows_one(tmp_path):
+    """12 shapes: pc below sketch on every shape (holds, p = 2/2^12), noise above 0 on none
+    (reversed), the novel camera level with the trained ones on 6 of 12 (no verdict)."""
+    rows = []
+    for i in range(12):
+        rows += [row("pc", 0.010 + i * 1e-4, i=i), row("pc", 0.005 + i * 1e-4, noise=0.05, i=i),
+                 row("sketch", 0.020 + i * 1e-4, camera="az35", i=i),
+                 row("sketch", 0.020 + i * 1e-4, camera="az55", i=i),
+                 row("sketch", 0.020 + i * 1e-4 + (1e-3 if i % 2 else -1e-3), camera="az15", i=i)]
+    t = trends(pd.DataFrame(rows), ["az35", "az55"], ["az15"]).set_index("trend")
+    assert t.loc["point clouds beat sketches", "verdict"] == "holds"
+    assert t.loc["point clouds beat sketches", "p"] == pytest.approx(2 / 2**12)
+    assert t.loc["noise hurts", "verdict"] == "reversed" and t.loc["noise hurts", "n"] == 12
+    assert t.loc["the trained cameras beat the novel one", "verdict"] == "no verdict"
+    assert "sparsity hurts" not in t.index                 # no sparse clouds in these metrics
+    write_tables(pd.DataFrame(rows), CAMERAS, tmp_path, "h")
+    assert "| vase | noise hurts |" in (tmp_path / "trends.md").read_text()
+    assert "trends.md" in (tmp_path / "README.md").read_text()

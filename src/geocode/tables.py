@@ -383,6 +383,78 @@ def build_tables(metrics: pd.DataFrame, cameras: list[dict]) -> dict[str, pd.Dat
     return tables
 
 
+# ---------------------------------------------------------------- the paper's trends
+
+TRENDS = {  # trend -> (the better condition, the worse one), as the paper finds them
+    "point clouds beat sketches": ("pc", "sketch (trained cameras)"),
+    "the trained cameras beat the novel one": ("sketch (trained cameras)", "sketch (novel camera)"),
+    "noise hurts": ("pc", "pc, most noise"),
+    "sparsity hurts": ("pc, most points", "pc, fewest points"),
+    "simplification hurts": ("pc", "pc, most simplified"),
+}
+ALPHA = 0.05
+TRENDS_NOTE = (f"Each trend of the paper tested per domain on the same test shapes (paired Wilcoxon "
+               f"signed-rank): 'holds' or 'reversed' where p < {ALPHA}, else no verdict at this sample size.")
+
+
+def trend_pairs(m: pd.DataFrame, trained: list[str], novel: list[str]) -> dict[tuple[str, str], tuple]:
+    """{(domain, trend): (per-shape CDs of the better condition, of the worse)} for the joint
+    model, where the metrics hold both conditions."""
+    joint = m[m.variant == "joint"]
+    clean = _clean(joint)
+    out = {}
+    for domain, d in joint.groupby("domain"):
+        c = clean[clean.domain == domain]
+        pc = c[c.modality == "pc"]
+        sketch = c[c.modality == "sketch"]
+        clouds = d[d.modality == "pc"]
+        noisy = clouds[(clouds.source == "test") & (clouds["sparse"] == 0) & (clouds.noise > 0)]
+        sparse_ = clouds[clouds["sparse"] > 0]
+        simple = clouds[(clouds.source != "test") & (clouds.noise == 0) & (clouds["sparse"] == 0)]
+        picks = {
+            "point clouds beat sketches": (pc, _trained(sketch, trained)),
+            "the trained cameras beat the novel one": (_trained(sketch, trained), _trained(sketch, novel)),
+            "noise hurts": (pc, noisy[noisy.noise == noisy.noise.max()]),
+            "sparsity hurts": (sparse_[sparse_["sparse"] == sparse_["sparse"].max()],
+                               sparse_[sparse_["sparse"] == sparse_["sparse"].min()]),
+            "simplification hurts": (pc, simple[simple.source == max(simple.source, key=_factor, default="")]),
+        }
+        for trend, (better, worse) in picks.items():
+            if len(better) and len(worse):
+                out[(domain, trend)] = (per_shape(better), per_shape(worse))
+    return out
+
+
+def _factor(source: str) -> int:
+    return int(source[1:]) if source[1:].isdigit() else 0
+
+
+def trends(m: pd.DataFrame, trained: list[str], novel: list[str]) -> pd.DataFrame:
+    """One row per domain and trend: the two means, n, the paired p-value and the verdict."""
+    rows = []
+    for (domain, trend), (better, worse) in sorted(trend_pairs(m, trained, novel).items(),
+                                                   key=lambda kv: (_row_order(kv[0][0]), kv[0][1])):
+        a, b = better.align(worse, join="inner")
+        p = wilcoxon_p(a, b)
+        verdict = "no verdict"
+        if np.isfinite(p) and p < ALPHA:
+            verdict = "holds" if a.mean() < b.mean() else "reversed"
+        rows.append({"domain": domain, "trend": trend, "better (paper)": TRENDS[trend][0],
+                     "worse (paper)": TRENDS[trend][1], "mean better": a.mean(), "mean worse": b.mean(),
+                     "n": len(a), "p": p, "verdict": verdict})
+    return pd.DataFrame(rows, columns=["domain", "trend", "better (paper)", "worse (paper)", "mean better",
+                                       "mean worse", "n", "p", "verdict"])
+
+
+def trends_markdown(frame: pd.DataFrame, header: str) -> str:
+    lines = ["# The paper's trends in our results", "", header, "", TRENDS_NOTE, "",
+             "| domain | trend | better (paper) | worse (paper) | mean better | mean worse | n | p | verdict |",
+             "|---" * 9 + "|"]
+    lines += [f"| {r.domain} | {r.trend} | {r['better (paper)']} | {r['worse (paper)']} | {r['mean better']:.5f} | "
+              f"{r['mean worse']:.5f} | {r.n} | {r.p:.2g} | {r.verdict} |" for _, r in frame.iterrows()]
+    return "\n".join(lines) + "\n"
+
+
 def write_tables(metrics: pd.DataFrame, cameras: list[dict], out_dir: Path, header: str) -> list[str]:
     """Write <name>.csv/.md/.tex for each table and an index README.md; return the names."""
     out_dir = Path(out_dir)
@@ -393,10 +465,17 @@ def write_tables(metrics: pd.DataFrame, cameras: list[dict], out_dir: Path, head
         write_text(out_dir / f"{name}.csv", f"# {header}\n" + frame.to_csv(float_format="%.6g"))
         write_text(out_dir / f"{name}.md", markdown(frame, TITLES[name], header, percent, note))
         write_text(out_dir / f"{name}.tex", latex(frame, TITLES[name], header, percent, note))
+    trained = [c["name"] for c in cameras if c["train"]]
+    found = trends(metrics, trained, [c["name"] for c in cameras if not c["train"]])
+    if len(found):
+        write_text(out_dir / "trends.csv", f"# {header}\n" + found.to_csv(index=False, float_format="%.6g"))
+        write_text(out_dir / "trends.md", trends_markdown(found, header))
     index = ["# Results", "", header, "", "Each table: `.csv`, `.md`, `.tex`; the paper's values in the"
              " `(paper)` columns; every mean with its 95% bootstrap confidence interval and number of"
              " test shapes. Chamfer distances: lower is better.", ""]
     index += [f"- [{TITLES[n]}]({n}.md)" for n in tables]
+    if len(found):
+        index.append("- [The paper's trends, tested per domain](trends.md)")
     index += ["", "Figures of inputs, ground truth and predictions: [../report/index.html](../report/index.html)"]
     write_text(out_dir / "README.md", "\n".join(index) + "\n")
     return list(tables)
