@@ -3,6 +3,9 @@
 
 Conditions are the inputs a model is tested on: clean point clouds, sketches from each
 camera, noisy and sparse clouds, and point clouds and sketches of simplified test meshes.
+The point-cloud conditions named in `eval.fit` come twice: as predicted, and as fitted
+(`<condition>-fit`, modality "pc+fit": the prediction refined by `geocode.fit` against the
+input cloud in the rebuild step, which has the program at hand).
 A simplified copy of the test split lives beside it as the split `test-s<factor>`, so the
 ordinary sketch and points stages make its inputs.
 """
