@@ -104,3 +104,24 @@ def test_majority_accuracy_is_the_most_frequent_train_class_scored_on_val(run):
         per_parameter.append(np.mean(val_c[:, j] == values[counts.argmax()]))
     assert result["majority_val_acc"] == pytest.approx(np.mean(per_parameter))
     assert majority_accuracy(cfg, recipe) == result["majority_val_acc"]
+
+
+def test_loaded_network_predicts_as_the_trained_module_without_lightning(run):
+    """load_model rebuilds a plain network (geocode.checkpoints imports no Lightning, so
+    `geocode reconstruct` starts faster) that holds the module's tensors and predicts as it."""
+    import subprocess
+    import sys
+
+    from geocode.models import GeoCodeModule, GeoCodeNet
+
+    _, result = run
+    net = load_model(result["best"])
+    ckpt = torch.load(result["best"], weights_only=True)
+    module = GeoCodeModule(**ckpt["hyper_parameters"])
+    module.load_state_dict(ckpt["state_dict"])
+    assert isinstance(net, GeoCodeNet) and not isinstance(net, GeoCodeModule)
+    assert net.state_dict().keys() == module.state_dict().keys()
+    points = np.random.default_rng(1).normal(size=(4, N_FPS + N_PICK, 3)).astype(np.float32)
+    np.testing.assert_array_equal(predict_classes(net, points=points), predict_classes(module.eval(), points=points))
+    code = "import sys, geocode.checkpoints, geocode.reconstruct; print('pytorch_lightning' in sys.modules)"
+    assert subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip() == "False"

@@ -139,9 +139,9 @@ def sketch_path(cfg: DictConfig, domain: str, cond: dict, shape_id: str) -> Path
 
 def predict_step(cfg: DictConfig, domain: str, checkpoint: Path, out: Path) -> str:
     """Predict every condition's test inputs, denormalise, and write one parquet of values."""
+    from geocode.checkpoints import load_model, predict_classes
     from geocode.recipe import load_recipe
     from geocode.reconstruct import ranked_prediction
-    from geocode.train import load_model, predict_classes
     from geocode.training_data import load_sketch
 
     recipe = load_recipe(cfg)

@@ -128,13 +128,13 @@ def bench_fit(cfg, domain: str, n: int = 10) -> dict:
     run in `cfg` (as `geocode reconstruct` does), and measure against the ground truth."""
     import statistics
 
+    from geocode.checkpoints import load_model
     from geocode.config import data_dir
     from geocode.evaluation import conditions, point_input, test_ids
     from geocode.meshio import read_obj
     from geocode.metrics import chamfer_meshes
     from geocode.program import Program
     from geocode.reconstruct import check_checkpoint, default_checkpoint, ranked_prediction
-    from geocode.train import load_model
 
     program = Program.load(domain)
     recipe = program.recipe()

@@ -217,9 +217,9 @@ def reconstruct(cfg, domain: str, input_path: Path, out_dir: Path,
     """Predict (and for clouds, fit) the program's parameters for one input file and write
     <stem>.yaml, .obj, .png (input beside result) and .blend into `out_dir`. Everything is
     checked and computed before the first file is written."""
+    from geocode.checkpoints import load_model
     from geocode.fit import fit
     from geocode.program import Program
-    from geocode.train import load_model
 
     program = Program.load(domain)
     user_input = read_input(input_path, up, cfg.data.points)

@@ -18,101 +18,22 @@ from functools import partial
 
 import pytorch_lightning as pl
 import torch
-from torch import nn
 
-from geocode.models.dgcnn import DGCNN, DGCNNReference
-from geocode.models.heads import Decoders
-from geocode.models.vgg import VGG_CHANNELS, VGGSketchEncoder
+from geocode.models.network import (  # noqa: F401  (the variants' names are used from here too)
+    MODALITIES,
+    VARIANT_MODALITIES,
+    VARIANTS,
+    Branch,
+    Network,
+    branch_layout,
+    variant_modalities,
+)
+from geocode.models.vgg import VGG_CHANNELS
 
-VARIANTS = ("joint", "separate", "regression", "huang")
 SCHEDULES = ("step", "cosine")  # the paper's StepLR; warmup + cosine decay for short budgets
-MODALITIES = ("points", "sketch")
-# The inputs a variant can take: Huang et al. 2017 read sketches only.
-VARIANT_MODALITIES = {"huang": ("sketch",)}
 
 
-def variant_modalities(variant: str, modalities: Sequence[str] = MODALITIES) -> list[str]:
-    """The asked-for modalities that the variant takes, in MODALITIES order."""
-    allowed = VARIANT_MODALITIES.get(variant, MODALITIES)
-    kept = [m for m in MODALITIES if m in modalities and m in allowed]
-    if not kept:
-        raise ValueError(f"model.variant={variant} takes {', '.join(allowed)}: "
-                         f"modalities={list(modalities)} leaves it no input")
-    return kept
-
-
-class Branch(nn.Module):
-    """An encoder per modality and their decoders for a subset of the parameters.
-
-    Shapes: points (B, N, 3), sketches (B, 1, H, W) -> {modality: {name: (B, width)}}.
-    """
-
-    def __init__(
-        self,
-        specs: Sequence[Mapping],
-        modalities: Sequence[str],
-        separate: bool,
-        regression: bool,
-        k: int,
-        edge_channels: Sequence[int],
-        point_channels: int,
-        sketch_channels: Sequence[int | str],
-        sketch_pool: int,
-        hidden: Sequence[int],
-        dropout: float,
-        fast: bool,
-        embedding_norm: bool = False,
-    ) -> None:
-        super().__init__()
-        dgcnn = DGCNN if fast else DGCNNReference
-        if "points" in modalities:
-            self.points = dgcnn(k=k, channels=edge_channels, out_channels=point_channels)
-        if "sketch" in modalities:
-            self.sketch = VGGSketchEncoder(sketch_channels, out_dim=2 * point_channels, pool_size=sketch_pool)
-        # A BatchNorm per modality on its embedding: shared decoders then read inputs of one
-        # scale (a DGCNN pools rectified features; the sketch encoder ends with a linear layer).
-        self.norms = nn.ModuleDict({m: nn.BatchNorm1d(2 * point_channels) for m in modalities} if embedding_norm else {})
-        keys = modalities if separate else ("common",)
-        self.decoders = nn.ModuleDict(
-            {key: Decoders(specs, 2 * point_channels, hidden, dropout, regression) for key in keys}
-        )
-
-    def decoder(self, modality: str) -> Decoders:
-        return self.decoders[modality if modality in self.decoders else "common"]
-
-    def forward(self, points=None, sketches=None) -> dict[str, dict[str, torch.Tensor]]:
-        embeddings = {m: getattr(self, m)(x)
-                      for m, x in (("points", points), ("sketch", sketches)) if x is not None}
-        embeddings = {m: self.norms[m](e) if m in self.norms else e for m, e in embeddings.items()}
-        if "common" not in self.decoders:
-            return {m: self.decoders[m](e) for m, e in embeddings.items()}
-        # Shared decoders see both modalities in one batch: their BatchNorm then normalises
-        # in training with the statistics it keeps for evaluation. Called once per modality,
-        # the running statistics would blend two distributions that training never saw
-        # blended, and eval-mode predictions of both modalities would suffer.
-        outputs = self.decoders["common"](torch.cat(list(embeddings.values())))
-        sizes = [len(e) for e in embeddings.values()]
-        parts = {name: out.split(sizes) for name, out in outputs.items()}
-        return {m: {name: p[i] for name, p in parts.items()} for i, m in enumerate(embeddings)}
-
-
-def branch_layout(variant: str, specs: Sequence[Mapping]) -> list[tuple[list[dict], bool, bool]]:
-    """(specs, separate decoders?, regression?) for each network of a variant."""
-    specs = [dict(s) for s in specs]
-    if variant == "joint":
-        return [(specs, False, False)]
-    if variant == "separate":
-        return [(specs, True, False)]
-    if variant == "regression":
-        return [(specs, False, True)]
-    if variant == "huang":
-        discrete = [s for s in specs if not s["continuous"]]
-        continuous = [s for s in specs if s["continuous"]]
-        return [(group, False, reg) for group, reg in ((discrete, False), (continuous, True)) if group]
-    raise ValueError(f"model.variant={variant!r}: use one of {', '.join(VARIANTS)}")
-
-
-class GeoCodeModule(pl.LightningModule):
+class GeoCodeModule(Network, pl.LightningModule):
     """Point clouds and sketches (the `modalities` the variant takes) -> one class per
     program parameter.
 
@@ -154,41 +75,8 @@ class GeoCodeModule(pl.LightningModule):
              "lr": lr, "step_size": step_size, "gamma": gamma, "schedule": schedule,
              "warmup_epochs": warmup_epochs, "modalities": modalities}
         )
-        self.modalities = modalities
-        self.parameter_names = [h["name"] for h in heads]
-        self.columns = {name: j for j, name in enumerate(self.parameter_names)}
-        self.branches = nn.ModuleList(
-            Branch(group, modalities, sep, reg, k, edge_channels, point_channels, sketch_channels, sketch_pool,
-                   hidden, dropout, fast, embedding_norm)
-            for group, sep, reg in branch_layout(variant, heads)
-        )
-
-    # ------------------------------------------------------------ inference
-
-    def forward(self, points=None, sketches=None) -> dict[str, dict[str, torch.Tensor]]:
-        """{modality: {parameter: head output}} over all branches."""
-        for modality, inputs in (("points", points), ("sketch", sketches)):
-            if inputs is not None and modality not in self.modalities:
-                raise ValueError(f"a {self.hparams.variant} model takes no {modality} input "
-                                 f"(its modalities: {', '.join(self.modalities)})")
-        out: dict[str, dict[str, torch.Tensor]] = {}
-        for branch in self.branches:
-            for modality, heads in branch(points, sketches).items():
-                out.setdefault(modality, {}).update(heads)
-        return out
-
-    def classes(self, outputs: Mapping[str, torch.Tensor], modality: str) -> torch.Tensor:
-        """Head outputs of one modality -> class indices. Shapes: -> (B, P) int64."""
-        found: dict[str, torch.Tensor] = {}
-        for branch in self.branches:
-            found.update(branch.decoder(modality).classes(outputs))
-        return torch.stack([found[name] for name in self.parameter_names], dim=1)
-
-    @torch.inference_mode()
-    def predict_classes(self, points=None, sketches=None) -> dict[str, torch.Tensor]:
-        """Eval-mode class indices per modality. Shapes: -> {modality: (B, P) int64}."""
-        outputs = self(points, sketches)
-        return {m: self.classes(o, m) for m, o in outputs.items()}
+        self._build(heads, variant, k, edge_channels, point_channels, sketch_channels, sketch_pool,
+                    hidden, dropout, fast, embedding_norm, modalities)
 
     # ------------------------------------------------------------ training
 

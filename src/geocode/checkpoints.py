@@ -1,0 +1,125 @@
+"""Trained models for inference: reading, checking and loading checkpoints, and predicting
+classes, without Lightning (so `geocode reconstruct` and `predict` start fast).
+
+    load_model(checkpoint) -> GeoCodeNet  # eval mode, weights_only loading
+    predict_classes(model, points=... | sketches=...) -> (N, P) int64
+    predict(checkpoint, points=None, sketches=None) -> {"points": (N, P), "sketch": (N, P)}
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from collections.abc import Mapping
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from geocode.errors import UserError, one_line
+from geocode.models.network import GeoCodeNet
+
+
+class CheckpointError(UserError):
+    """A checkpoint that cannot be read or does not fit; one line naming the file."""
+
+
+def recipe_stamp(recipe) -> dict:
+    """What a model was trained to predict: each parameter's class values ("hidden" for the
+    existence class), and a hash of the whole recipe. Checkpoints record it; prediction
+    decodes only on the same grid."""
+    grid = {p.name: [float(c) for c in p.classes] + (["hidden"] if p.has_existence else [])
+            for p in recipe.parameters}
+    text = json.dumps(recipe.to_dict(), sort_keys=True, default=str)
+    return {"hash": hashlib.sha1(text.encode()).hexdigest()[:10], "grid": grid}
+
+
+def read_checkpoint(path: str | Path, map_location="cpu") -> dict:
+    """torch.load(weights_only=True) of a geocode checkpoint; CheckpointError otherwise."""
+    path = Path(path)
+    if not path.is_file():
+        raise CheckpointError(path, "checkpoint not found", "train first")
+    try:
+        ckpt = torch.load(path, map_location=map_location, weights_only=True)
+    except Exception as exc:  # torch raises many types for a broken file
+        raise CheckpointError(path, f"not a readable checkpoint ({one_line(exc)})", "retrain or pick another file") from None
+    if not isinstance(ckpt, Mapping) or "state_dict" not in ckpt or "heads" not in ckpt.get("hyper_parameters", {}):
+        raise CheckpointError(path, "not a geocode model checkpoint (no state_dict / heads)", "pick a best.ckpt or last.ckpt")
+    return dict(ckpt)
+
+
+def check_recipe(ckpt: Mapping, recipe, path) -> None:
+    """Refuse to decode a checkpoint's classes on another class grid than it was trained on."""
+    from geocode.models.heads import head_specs
+
+    if "recipe" in ckpt:
+        mine, theirs = recipe_stamp(recipe)["grid"], ckpt["recipe"]["grid"]
+    else:  # a checkpoint from before the stamp: the class counts of its heads
+        mine = {h["name"]: h["n_classes"] for h in head_specs(recipe)}
+        theirs = {h["name"]: h["n_classes"] for h in ckpt["hyper_parameters"]["heads"]}
+    for name in sorted(set(mine) | set(theirs)):
+        if mine.get(name) != theirs.get(name):
+            raise CheckpointError(path, f"trained on another recipe ({name}: classes {theirs.get(name)}, "
+                                  f"the recipe gives {mine.get(name)})",
+                                  "predict with the recipe it was trained on, or retrain")
+
+
+def load_model(checkpoint: str | Path, map_location="cpu", recipe=None) -> GeoCodeNet:
+    """A trained network in eval mode, rebuilt from the checkpoint's hyperparameters (no
+    Lightning); with `recipe`, only if it was trained on that recipe's class grid."""
+    ckpt = read_checkpoint(checkpoint, map_location)
+    if recipe is not None:
+        check_recipe(ckpt, recipe, checkpoint)
+    try:
+        model = GeoCodeNet(**ckpt["hyper_parameters"])
+        model.load_state_dict(ckpt["state_dict"])
+    except (TypeError, ValueError, RuntimeError, KeyError) as exc:
+        raise CheckpointError(checkpoint, f"checkpoint does not fit the model ({one_line(exc)})", "retrain or pick another file") from None
+    return model.eval()
+
+
+def _as_tensor(x: np.ndarray, device) -> torch.Tensor:
+    t = torch.as_tensor(np.asarray(x))
+    if t.dtype == torch.uint8:
+        t = t.float() / 255.0
+    return t.to(device=device, dtype=torch.float32)
+
+
+def predict_classes(model: GeoCodeNet, points=None, sketches=None, batch_size: int = 64) -> np.ndarray:
+    """Class indices (N, P) int64 for one modality, in model.parameter_names order.
+
+    Shapes: points (N, M, 3) (any M >= 1), or sketches (N, 1, H, W) / (N, H, W) float in
+    [0, 1] (white background) or uint8.
+    """
+    if (points is None) == (sketches is None):
+        raise ValueError("predict_classes: give exactly one of points= or sketches=")
+    modality, inputs = ("points", points) if points is not None else ("sketch", sketches)
+    inputs = np.asarray(inputs)
+    if modality == "points" and (inputs.ndim != 3 or inputs.shape[-1] != 3):
+        raise ValueError(f"points: expected (N, M, 3), got {inputs.shape}")
+    if modality == "sketch":
+        inputs = inputs[:, None] if inputs.ndim == 3 else inputs
+        if inputs.ndim != 4 or inputs.shape[1] != 1:
+            raise ValueError(f"sketches: expected (N, 1, H, W), got {inputs.shape}")
+    model.eval()
+    device = next(model.parameters()).device
+    out = []
+    for s in range(0, len(inputs), batch_size):
+        x = _as_tensor(inputs[s : s + batch_size], device)
+        kw = {"points": x} if modality == "points" else {"sketches": x}
+        out.append(model.predict_classes(**kw)[modality].cpu().numpy())
+    n_params = len(model.parameter_names)
+    return np.concatenate(out) if out else np.zeros((0, n_params), dtype=np.int64)
+
+
+def predict(checkpoint: str | Path, points=None, sketches=None, batch_size: int = 64, device: str | None = None) -> dict:
+    """{"names": parameter names, "points": (N, P), "sketch": (N, P)} for the inputs given."""
+    model = load_model(checkpoint)
+    if device:
+        model = model.to(device)
+    result: dict = {"names": list(model.parameter_names)}
+    if points is not None:
+        result["points"] = predict_classes(model, points=points, batch_size=batch_size)
+    if sketches is not None:
+        result["sketch"] = predict_classes(model, sketches=sketches, batch_size=batch_size)
+    return result
