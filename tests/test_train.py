@@ -125,3 +125,22 @@ def test_loaded_network_predicts_as_the_trained_module_without_lightning(run):
     np.testing.assert_array_equal(predict_classes(net, points=points), predict_classes(module.eval(), points=points))
     code = "import sys, geocode.checkpoints, geocode.reconstruct; print('pytorch_lightning' in sys.modules)"
     assert subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip() == "False"
+
+
+def test_network_defaults_are_the_training_modules_and_fill_old_checkpoints(run, tmp_path):
+    """A checkpoint from before a network key existed (here `embedding_norm`) loads with the
+    key's default, which is the training module's default too."""
+    import inspect
+
+    from geocode.models import GeoCodeModule
+    from geocode.models.network import NETWORK_DEFAULTS
+
+    defaults = {k: p.default for k, p in inspect.signature(GeoCodeModule).parameters.items()}
+    assert {k: defaults[k] for k in NETWORK_DEFAULTS} == NETWORK_DEFAULTS
+    _, result = run
+    ckpt = torch.load(result["best"], weights_only=True)
+    del ckpt["hyper_parameters"]["embedding_norm"]
+    ckpt["state_dict"] = {k: v for k, v in ckpt["state_dict"].items() if ".norms." not in k}
+    old = tmp_path / "old.ckpt"
+    torch.save(ckpt, old)
+    assert load_model(old).hparams.get("embedding_norm") is None and not load_model(old).branches[0].norms

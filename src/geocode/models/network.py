@@ -14,7 +14,7 @@ from torch import nn
 
 from geocode.models.dgcnn import DGCNN, DGCNNReference
 from geocode.models.heads import Decoders
-from geocode.models.vgg import VGGSketchEncoder
+from geocode.models.vgg import VGG_CHANNELS, VGGSketchEncoder
 
 VARIANTS = ("joint", "separate", "regression", "huang")
 MODALITIES = ("points", "sketch")
@@ -109,8 +109,11 @@ class Hyper(dict):
     __getattr__ = dict.__getitem__
 
 
-NETWORK_KEYS = ("heads", "variant", "k", "edge_channels", "point_channels", "sketch_channels", "sketch_pool",
-                "hidden", "dropout", "fast", "embedding_norm", "modalities")
+# The network's hyperparameters and their defaults (those of `GeoCodeModule` too); a checkpoint
+# from before a key existed loads with its default.
+NETWORK_DEFAULTS = {"variant": "joint", "k": 20, "edge_channels": (16, 16, 32, 64), "point_channels": 64,
+                    "sketch_channels": VGG_CHANNELS, "sketch_pool": 7, "hidden": (128, 64), "dropout": 0.5,
+                    "fast": True, "embedding_norm": False, "modalities": MODALITIES}
 
 
 class Network:
@@ -161,4 +164,4 @@ class GeoCodeNet(Network, nn.Module):
     def __init__(self, **hparams) -> None:
         super().__init__()
         self.hparams = Hyper(hparams)
-        self._build(**{key: hparams[key] for key in NETWORK_KEYS})
+        self._build(hparams["heads"], **{key: hparams.get(key, value) for key, value in NETWORK_DEFAULTS.items()})
