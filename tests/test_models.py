@@ -1,6 +1,9 @@
 """Encoders, decoders, losses, the fast/reference DGCNN equivalence, and every model config."""
 
 import math
+import os
+import subprocess
+import sys
 
 import pytest
 import torch
@@ -90,6 +93,17 @@ def test_knn_cells_seeds_only_speed_it_up():
     x = _clouds()["features"]
     seeds = knn_cells(x[..., :4].contiguous(), 20)  # neighbours in another space
     torch.testing.assert_close(_knn_distances(x, knn_cells(x, 20, seeds)), _exact_knn_distances(x, 20))
+
+
+def test_compiled_knn_keeps_torchs_thread_count():
+    """Numba's OpenMP pool would reset torch to every core when it starts: a 1-thread job
+    (OMP_NUM_THREADS=1, as Snakemake sets it) must stay on one thread."""
+    code = ("import torch; from geocode.models.neighbours import knn_cells, neighbour_max; "
+            "x = torch.rand(2, 300, 3); knn_cells(x, 8); "
+            "neighbour_max(torch.rand(300, 4), torch.randint(300, (1200,)), 4); print(torch.get_num_threads())")
+    env = {**os.environ, "OMP_NUM_THREADS": "1"}
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
+    assert out.stdout.split() == ["1"]
 
 
 def test_knn_cells_rejects_non_finite_features():

@@ -206,3 +206,16 @@ def test_save_and_load_recipes(tmp_path, splits):
     assert path.read_bytes() == first  # byte-identical rewrite
     with pytest.raises(ValueError, match="file not found"):
         load_recipes(tmp_path / "none.parquet")
+
+
+def test_domain_variations_replace_a_domains_split_counts():
+    """data.domain_variations gives one domain more shapes; the others keep data.variations."""
+    from geocode.config import compose, split_variations
+
+    cfg = compose(["data.variations={train: 2, val: 1, test: 1}", "data.domain_variations=null",
+                   "data.domain_variations={ceiling_lamp: {train: 4}, vase: {test: 3}}"])
+    assert split_variations(cfg, "ceiling_lamp") == {"train": 4, "val": 1, "test": 1}
+    assert split_variations(cfg, "vase") == {"train": 2, "val": 1, "test": 3}
+    assert split_variations(cfg, "chair") == {"train": 2, "val": 1, "test": 1}
+    assert split_variations(compose(["data.domain_variations=null"]), "ceiling_lamp")["train"] == 2
+    assert split_variations(compose(["++data.domain_variations.chair.train=3"]), "chair")["train"] == 3

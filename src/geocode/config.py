@@ -76,13 +76,16 @@ def compose(overrides: Sequence[str] = ()) -> DictConfig:
         with initialize_config_dir(str(repo_root() / "conf"), version_base="1.3"):
             cfg = hydra_compose("config", overrides=list(overrides))
     except (HydraException, ValueError) as exc:  # Hydra's override parser raises ValueError too
-        first = str(exc).strip().splitlines()[0]
+        lines = str(exc).strip().splitlines()
+        first = lines[0]
         if unknown := re.search(r"Could not find 'domain/([^']*)'", first):
             raise ConfigError(
                 f"domain={unknown[1]}: no such domain; use one of {', '.join(registry()) or 'none'}, "
                 f"or add programs/{unknown[1]}.py with its recipe programs/{unknown[1]}.yaml "
                 f"(in {programs_dir()})") from None
-        raise ConfigError(f"conf/: {first}; {KEYS_HINT} for the groups and keys") from None
+        # a new key in a mapping setting is added with +key=value, as Hydra's second line says
+        hint = f" {lines[1].strip()}" if len(lines) > 1 and any(f"'{m}" in first for m in MAPPINGS) else ""
+        raise ConfigError(f"conf/: {first}{hint}; {KEYS_HINT} for the groups and keys") from None
     try:
         validate(cfg)
     except OmegaConfBaseException as exc:       # e.g. an interpolation ${...} that resolves to nothing
@@ -126,6 +129,10 @@ _TEXT = ("a text", lambda v: isinstance(v, str) and v != "")
 _FLAG = ("true or false", lambda v: isinstance(v, bool))
 _FRACTION = _number(0, 1)
 _SHAPES = _optional(_whole(1))
+_DOMAIN_VARIATIONS = ("null or a mapping {<domain>: {train|val|test: a whole number >= 1}}",
+                      lambda v: v is None or isinstance(v, DictConfig) and all(
+                          isinstance(splits, DictConfig) and all(s in SPLITS and _whole(1)[1](n) for s, n in splits.items())
+                          for splits in v.values()))
 _CHANNELS = ("a list of whole numbers >= 1 and M (2x2 max-pool)",
              lambda v: isinstance(v, ListConfig) and all(x == "M" or _whole(1)[1](x) for x in v))
 
@@ -140,6 +147,8 @@ SETTINGS = {key: Setting(meaning, *rule) for key, (meaning, rule) in {
     "paths.build": ("built programs (.blend) and their manifests", _TEXT),
     "paths.results": ("tables and the report", _TEXT),
     **{f"data.variations.{split}": (f"{split} shapes per parameter class", _whole(1)) for split in SPLITS},
+    "data.domain_variations": ("per-domain replacements of data.variations, {<domain>: {<split>: N}}: "
+                               "more shapes for the domains that need them", _DOMAIN_VARIATIONS),
     **{f"data.max_shapes.{split}": (f"keep at most this many {split} shapes (an even spread)", _SHAPES)
        for split in SPLITS},
     "data.shards": ("shards per split: the export, sketch and points jobs of each split", _whole(1)),
@@ -211,14 +220,18 @@ SETTINGS = {key: Setting(meaning, *rule) for key, (meaning, rule) in {
 }.items()}
 
 
-def flat(cfg: DictConfig) -> dict[str, object]:
-    """Every setting by its dotted key; lists and null groups are values."""
+MAPPINGS = {"data.domain_variations"}  # settings whose value is a whole mapping (its keys are domains)
+
+
+def flat(cfg: DictConfig, prefix: str = "") -> dict[str, object]:
+    """Every setting by its dotted key; lists, null groups and MAPPINGS are values."""
     out = {}
     for key, value in cfg.items():
-        if isinstance(value, DictConfig):
-            out.update({f"{key}.{k}": v for k, v in flat(value).items()})
+        path = f"{prefix}{key}"
+        if isinstance(value, DictConfig) and path not in MAPPINGS:
+            out.update(flat(value, f"{path}."))
         else:
-            out[str(key)] = value
+            out[path] = value
     return out
 
 
@@ -260,6 +273,12 @@ def _check_known(cfg: DictConfig) -> None:
         if name not in known:
             raise ConfigError(f"domains={name}", f"no such domain in {programs_dir()}",
                               f"use one of {', '.join(known) or 'none (add a program and its recipe)'}")
+    # the profiles name the project's domains; a programs folder of one's own may lack them
+    shipped = {p.stem for p in (repo_root() / "programs").glob("*.yaml")}
+    for name in cfg.data.domain_variations or {}:
+        if name not in {*known, *shipped}:
+            raise ConfigError(f"data.domain_variations.{name}", "no such domain",
+                              f"use one of {', '.join(known) or 'none'}")
     variants = group_options("model")
     for key, names in (("model.variant", [cfg.model.variant]), ("eval.variants", cfg.eval.variants),
                        ("eval.ablations", cfg.eval.ablations)):
@@ -312,7 +331,7 @@ def describe_keys(cfg: DictConfig) -> str:
     for key, value in flat(cfg).items():
         setting = SETTINGS.get(key)
         about = f"{setting.meaning}; {setting.expect}" if setting else "(not documented)"
-        shown = json.dumps(OmegaConf.to_container(value) if isinstance(value, ListConfig) else value)
+        shown = json.dumps(OmegaConf.to_container(value) if isinstance(value, ListConfig | DictConfig) else value)
         lines.append(f"  {key:<26} {shown.strip(chr(34)):<10} {about}")
     return "\n".join(lines)
 
@@ -333,6 +352,12 @@ def variants(cfg: DictConfig, domain: str) -> list[str]:
     domain is one of eval.ablation_domains."""
     ablations = cfg.eval.ablations if domain in cfg.eval.ablation_domains else []
     return list(dict.fromkeys([*cfg.eval.variants, *ablations]))
+
+
+def split_variations(cfg: DictConfig, domain: str) -> dict[str, int]:
+    """Shapes per parameter class of each split: data.variations, with the domain's entries
+    in data.domain_variations in their place (null: none)."""
+    return {**cfg.data.variations, **(cfg.data.domain_variations or {}).get(domain, {})}
 
 
 def max_epochs(cfg: DictConfig, variant: str) -> int:

@@ -30,7 +30,7 @@ import numpy as np
 import pandas as pd
 from omegaconf import DictConfig
 
-from geocode.config import data_dir
+from geocode.config import data_dir, split_variations
 from geocode.errors import UserError
 from geocode.meshio import read_parquet, write_parquet
 from geocode.recipe import Recipe, load_recipe
@@ -320,7 +320,7 @@ def spread_subset(frame: pd.DataFrame, keep: int | None) -> pd.DataFrame:
 def sample_step(cfg: DictConfig) -> str:
     domain = cfg.domain.name
     recipe = load_recipe(cfg)
-    splits = sample_dataset(recipe, dict(cfg.data.variations), seed=cfg.seed, domain=domain)
+    splits = sample_dataset(recipe, split_variations(cfg, domain), seed=cfg.seed, domain=domain)
     counts = []
     for split in SPLITS:
         frame = spread_subset(splits[split], cfg.data.max_shapes[split])

@@ -5,6 +5,8 @@ instead of all N.
 
 from __future__ import annotations
 
+from contextlib import contextmanager
+
 import numba
 import numpy as np
 import torch
@@ -64,7 +66,8 @@ def knn_cells(x: torch.Tensor, k: int, seeds: torch.Tensor | None = None) -> tor
         raise ValueError("kNN: the features hold NaN or inf (is the point cloud finite?)")
     feats = _principal_coordinates(feats).contiguous().numpy()  # (B, N, max(C, 3))
     hint = np.zeros(x.shape[:2] + (0,), np.int64) if seeds is None else seeds.to("cpu").numpy()
-    idx = _knn_in_cells(feats, k, 4 * _numba_threads(), hint)
+    with _numba_threads() as threads:
+        idx = _knn_in_cells(feats, k, 4 * threads, hint)
     return torch.from_numpy(idx).to(x.device)
 
 
@@ -84,15 +87,24 @@ def neighbour_max(b: torch.Tensor, flat: torch.Tensor, k: int) -> torch.Tensor:
     """
     if b.device.type != "cpu":
         return b.index_select(0, flat).view(-1, k, b.shape[1]).amax(dim=1)
-    _numba_threads()
-    return torch.from_numpy(_gather_max(b.detach().contiguous().numpy(), flat.numpy(), k))
+    with _numba_threads():
+        return torch.from_numpy(_gather_max(b.detach().contiguous().numpy(), flat.numpy(), k))
 
 
-def _numba_threads() -> int:
-    """Compiled loops use as many threads as torch (OMP_NUM_THREADS, or a job's share)."""
-    threads = max(1, min(torch.get_num_threads(), numba.config.NUMBA_NUM_THREADS))
+@contextmanager
+def _numba_threads():
+    """Compiled loops use as many threads as torch (OMP_NUM_THREADS, or a job's share).
+    Numba's OpenMP pool resets the process's OpenMP thread count to every core when it
+    starts, torch's included: a 1-thread job would then run torch on 2 threads and slow
+    down a job beside it several times, so torch's count is put back."""
+    torch_threads = torch.get_num_threads()
+    threads = max(1, min(torch_threads, numba.config.NUMBA_NUM_THREADS))
     numba.set_num_threads(threads)
-    return threads
+    try:
+        yield threads
+    finally:
+        if torch.get_num_threads() != torch_threads:
+            torch.set_num_threads(torch_threads)
 
 
 def _principal_coordinates(feats: torch.Tensor) -> torch.Tensor:
