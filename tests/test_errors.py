@@ -67,7 +67,7 @@ CONFIG_CASES = {
     "domain variations zero": (override("data.domain_variations={vase: {train: 0}}"),
                                ["data.domain_variations", "whole number >= 1"]),
     "domain variations new key": (override("data.domain_variations.table.train=3"),
-                                  ["data.domain_variations.table.train", "+data.domain_variations"]),
+                                  ["data.domain_variations.table.train", "++data.domain_variations.<key>"]),
     "surface zero": (override("data.points.surface=0"), ["data.points.surface=0"]),
     "fps above surface": (override("data.points.fps=40000"), ["data.points", "fps <= surface"]),
     "sketch size": (override("data.sketch.size=0"), ["data.sketch.size=0"]),

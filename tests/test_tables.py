@@ -200,3 +200,15 @@ def test_trends_get_a_verdict_only_where_the_paired_test_allows_one(tmp_path):
     write_tables(pd.DataFrame(rows), CAMERAS, tmp_path, "h")
     assert "| vase | noise hurts |" in (tmp_path / "trends.md").read_text()
     assert "trends.md" in (tmp_path / "README.md").read_text()
+
+
+def test_tables_header_counts_shapes_per_domain(tmp_path):
+    """Test ids repeat across domains (test-000000 in each): the header counts (domain, id)."""
+    from geocode.cli import main
+
+    paths = []
+    for domain in ("vase", "chair"):
+        paths.append(tmp_path / f"{domain}.parquet")
+        metrics().assign(domain=domain).to_parquet(paths[-1])
+    assert main(["tables", "--metrics", *map(str, paths), "-o", str(tmp_path / "out"), "profile=smoke"]) == 0
+    assert "4 test shapes in 2 domains" in (tmp_path / "out" / "pc_vs_sketch.md").read_text()

@@ -489,8 +489,9 @@ def cmd_tables(args):
     cfg = step_config(args)
     metrics = pd.concat([read_parquet(p, "rerun the metrics step") for p in args.metrics], ignore_index=True)
     epochs = ", ".join(f"{v} {max_epochs(cfg, v)}" for v in sorted(metrics.variant.unique()))
-    header = (f"profile {cfg.profile_name}, config {config_hash(cfg)}, {metrics.id.nunique()} test shapes; "
-              f"max epochs: {epochs}")
+    shapes = len(metrics[["domain", "id"]].drop_duplicates())    # ids repeat across domains
+    header = (f"profile {cfg.profile_name}, config {config_hash(cfg)}, {shapes} test shapes in "
+              f"{metrics.domain.nunique()} domains; max epochs: {epochs}")
     cameras = [dict(c) for c in cfg.data.sketch.cameras]
     names = write_tables(metrics, cameras, args.output, header)
     return f"wrote {len(names)} tables to {args.output}: {', '.join(names)}"

@@ -76,15 +76,14 @@ def compose(overrides: Sequence[str] = ()) -> DictConfig:
         with initialize_config_dir(str(repo_root() / "conf"), version_base="1.3"):
             cfg = hydra_compose("config", overrides=list(overrides))
     except (HydraException, ValueError) as exc:  # Hydra's override parser raises ValueError too
-        lines = str(exc).strip().splitlines()
-        first = lines[0]
+        first = str(exc).strip().splitlines()[0]
         if unknown := re.search(r"Could not find 'domain/([^']*)'", first):
             raise ConfigError(
                 f"domain={unknown[1]}: no such domain; use one of {', '.join(registry()) or 'none'}, "
                 f"or add programs/{unknown[1]}.py with its recipe programs/{unknown[1]}.yaml "
                 f"(in {programs_dir()})") from None
-        # a new key in a mapping setting is added with +key=value, as Hydra's second line says
-        hint = f" {lines[1].strip()}" if len(lines) > 1 and any(f"'{m}" in first for m in MAPPINGS) else ""
+        mapping = next((m for m in MAPPINGS if f"'{m}" in first), None)  # a new entry needs ++
+        hint = f" Add an entry with ++{mapping}.<key>=<value>" if mapping else ""
         raise ConfigError(f"conf/: {first}{hint}; {KEYS_HINT} for the groups and keys") from None
     try:
         validate(cfg)
