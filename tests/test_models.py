@@ -18,7 +18,7 @@ from geocode.models import (
     VGGSketchEncoder,
     knn,
 )
-from geocode.models.heads import regression_classes, regression_loss
+from geocode.models.heads import median_classes, regression_classes, regression_loss
 from geocode.models.neighbours import knn_cells, knn_chunked
 
 HEADS = [
@@ -230,6 +230,24 @@ def test_regression_head_loss_and_classes():
     assert regression_loss(hidden, torch.tensor([0]), spec).item() == pytest.approx(0.81)
     got = regression_classes(torch.tensor([[0.34, 0.2], [0.7, 0.6], [1.3, 0.0]]), spec)
     assert got.tolist() == [1, 4, 3]
+
+
+def test_median_decoding_reads_the_middle_of_the_distribution():
+    spec = HEADS[0]  # 4 value classes + existence
+    probs = torch.tensor([
+        [0.40, 0.00, 0.30, 0.30, 0.00],  # argmax at one end; half the mass reached at class 2
+        [0.10, 0.15, 0.20, 0.15, 0.40],  # the existence class is the likeliest: hidden
+        [0.05, 0.05, 0.10, 0.10, 0.70],
+        [0.00, 0.10, 0.00, 0.20, 0.00],  # cumulative 0.1, 0.1, 0.1, 0.3 of 0.3: class 3
+    ]) + 1e-9
+    got = median_classes(probs.log(), spec)
+    assert got.tolist() == [2, 4, 4, 3]
+    dec = Decoders([spec, {"name": "count", "n_classes": 3, "continuous": False, "existence": False}])
+    out = {"size": probs.log(), "count": torch.tensor([[0.4, 0.0, 0.3]]).repeat(4, 1)}
+    classes = dec.classes(out, "median")
+    assert classes["size"].tolist() == [2, 4, 4, 3]
+    assert classes["count"].tolist() == [0, 0, 0, 0]  # discrete parameters keep the argmax
+    assert dec.classes(out)["size"].tolist() == [0, 4, 4, 3]
 
 
 @pytest.mark.parametrize("variant", VARIANTS)

@@ -85,8 +85,10 @@ def _as_tensor(x: np.ndarray, device) -> torch.Tensor:
     return t.to(device=device, dtype=torch.float32)
 
 
-def predict_classes(model: GeoCodeNet, points=None, sketches=None, batch_size: int = 64) -> np.ndarray:
-    """Class indices (N, P) int64 for one modality, in model.parameter_names order.
+def predict_classes(model: GeoCodeNet, points=None, sketches=None, batch_size: int = 64,
+                    decode: str = "argmax") -> np.ndarray:
+    """Class indices (N, P) int64 for one modality, in model.parameter_names order
+    (`decode`: how continuous parameters are read, eval.decode).
 
     Shapes: points (N, M, 3) (any M >= 1), or sketches (N, 1, H, W) / (N, H, W) float in
     [0, 1] (white background) or uint8.
@@ -107,7 +109,7 @@ def predict_classes(model: GeoCodeNet, points=None, sketches=None, batch_size: i
     for s in range(0, len(inputs), batch_size):
         x = _as_tensor(inputs[s : s + batch_size], device)
         kw = {"points": x} if modality == "points" else {"sketches": x}
-        out.append(model.predict_classes(**kw)[modality].cpu().numpy())
+        out.append(model.predict_classes(**kw, decode=decode)[modality].cpu().numpy())
     n_params = len(model.parameter_names)
     return np.concatenate(out) if out else np.zeros((0, n_params), dtype=np.int64)
 

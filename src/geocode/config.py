@@ -209,6 +209,9 @@ SETTINGS = {key: Setting(meaning, *rule) for key, (meaning, rule) in {
     "eval.simplify": ("decimation factors of the test meshes (keep 1/f of the faces)", _each(_whole(2))),
     "eval.noise": ("Gaussian noise sigmas on the unit-sphere clouds", _each(_number(0))),
     "eval.sparse": ("point counts of the sparse random clouds", _each(_whole(1))),
+    "eval.decode": ("how a continuous parameter's class is read from its classification head: argmax "
+                    "(the paper's) or median (of the predicted distribution)",
+                    ("argmax or median", lambda v: v in ("argmax", "median"))),
     "eval.max_test_shapes": ("evaluate on at most this many test shapes; null: all", _SHAPES),
     "eval.variants": ("model variants the workflow trains and evaluates", _each(_NAME)),
     "eval.ablations": ("decoder ablations trained for the ablation domains", _each(_NAME)),

@@ -148,21 +148,22 @@ def predict_step(cfg: DictConfig, domain: str, checkpoint: Path, out: Path) -> s
     model = load_model(checkpoint, recipe=recipe)
     ids = test_ids(cfg, domain)
     full = robustness(model.hparams.variant)
+    decode = cfg.eval.decode
     modalities = [MODALITY_NAMES[m] for m in model.modalities]
     frames = []
     for cond in conditions(cfg, modalities, full):
         start = time.perf_counter()
         if cond["modality"] == FITTED:  # the fit's start: the prediction and its likeliest classes
-            ranked = [ranked_prediction(model, recipe, "points", point_input(cfg, domain, unfitted(cond), i))
+            ranked = [ranked_prediction(model, recipe, "points", point_input(cfg, domain, unfitted(cond), i), decode)
                       for i in ids]
             frame = pd.DataFrame([values for values, _ in ranked])
             frame[OPTIONS] = [json.dumps(options) for _, options in ranked]
         elif cond["modality"] == "pc":
             batch = np.stack([point_input(cfg, domain, cond, i) for i in ids])
-            frame = pd.DataFrame(predicted_values(model, recipe, predict_classes(model, points=batch)))
+            frame = pd.DataFrame(predicted_values(model, recipe, predict_classes(model, points=batch, decode=decode)))
         else:
             batch = np.stack([load_sketch(sketch_path(cfg, domain, cond, i)) for i in ids])
-            frame = pd.DataFrame(predicted_values(model, recipe, predict_classes(model, sketches=batch)))
+            frame = pd.DataFrame(predicted_values(model, recipe, predict_classes(model, sketches=batch, decode=decode)))
         frames.append(frame.assign(**cond, id=ids))
         log.info("%s: %d shapes in %.1f s", cond["condition"], len(ids), time.perf_counter() - start)
     if full:
@@ -179,7 +180,9 @@ def predicted_values(model, recipe, classes: np.ndarray) -> list[dict[str, float
 
 
 def mean_shape(cfg: DictConfig, domain: str, recipe) -> pd.DataFrame:
-    """The baseline: every parameter at its most frequent class in the training split."""
+    """The baseline: every parameter at its most frequent class in the training split (the
+    stronger constant: each continuous parameter at its median class is further from the test
+    shapes, docs/fidelity.md)."""
     train = load_recipes(data_dir(cfg, domain, "train") / "recipes.parquet")
     classes = recipe.class_matrix(train)                        # (n, P)
     common = {p.name: int(np.bincount(classes[:, j]).argmax()) for j, p in enumerate(recipe.parameters)}

@@ -146,7 +146,7 @@ def bench_fit(cfg, domain: str, n: int = 10) -> dict:
     for shape_id in test_ids(cfg, domain)[:n]:
         cloud = point_input(cfg, domain, clean, shape_id)
         gt = read_obj(data_dir(cfg, domain, "test") / "shapes" / f"{shape_id}.obj")
-        start, options = ranked_prediction(model, recipe, "points", cloud)
+        start, options = ranked_prediction(model, recipe, "points", cloud, cfg.eval.decode)
         result = fit(program, recipe, start, options, cloud, cfg.eval.fit_budget, seed=cfg.seed)
         for values, out in ((program.check(start), before), (result.values, after)):
             rng = np.random.default_rng(0)

@@ -184,15 +184,15 @@ def check_checkpoint(model, recipe, checkpoint: Path, domain: str) -> None:
                          f"{domain!r}'s recipe; pass the checkpoint of a {domain} model")
 
 
-def ranked_prediction(model, recipe, modality: str, data: np.ndarray, k: int = TOP_CLASSES):
-    """(raw values of the most probable classes, {discrete parameter: its k most probable
-    raw values}) for one input of a modality (points (N, 3) or sketch (1, H, W))."""
+def ranked_prediction(model, recipe, modality: str, data: np.ndarray, decode: str, k: int = TOP_CLASSES):
+    """(raw values of the predicted classes (`decode`: eval.decode), {discrete parameter: its
+    k most probable raw values}) for one input of a modality (points (N, 3) or sketch (1, H, W))."""
     import torch
 
     x = torch.as_tensor(data[None], dtype=torch.float32)
     with torch.inference_mode():
         outputs = model(**{"points" if modality == "points" else "sketches": x})[modality]
-        best = model.classes(outputs, modality)[0].tolist()
+        best = model.classes(outputs, modality, decode)[0].tolist()
     start = recipe.values_from_classes(dict(zip(model.parameter_names, best, strict=True)))
     options = {}
     for p in recipe.parameters:
@@ -231,7 +231,7 @@ def reconstruct(cfg, domain: str, input_path: Path, out_dir: Path,
     recipe = program.recipe()
     model = load_model(checkpoint)
     check_checkpoint(model, recipe, checkpoint, domain)
-    start, options = ranked_prediction(model, recipe, user_input.kind, user_input.data)
+    start, options = ranked_prediction(model, recipe, user_input.kind, user_input.data, cfg.eval.decode)
     if refine is None:
         refine = cfg.eval.fit_budget if user_input.kind == "points" else 0
     summary = {"input": str(input_path), "kind": user_input.kind, "checkpoint": str(checkpoint)}

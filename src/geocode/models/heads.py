@@ -15,6 +15,9 @@ import torch.nn.functional as F
 from torch import nn
 
 LEAKY_SLOPE = 0.2
+# How a continuous parameter's class is read from its classification head: the likeliest
+# class (the paper's) or the median of the predicted distribution (docs/fidelity.md).
+DECODINGS = ("argmax", "median")
 
 
 def head_specs(recipe) -> list[dict]:
@@ -126,15 +129,18 @@ class Decoders(nn.Module):
                 total = total + regression_loss(outputs[name], target, spec)
         return total
 
-    def classes(self, outputs: Mapping[str, torch.Tensor]) -> dict[str, torch.Tensor]:
-        """Predicted class index per parameter. Shapes: {name: (B, width)} -> {name: (B,)}."""
+    def classes(self, outputs: Mapping[str, torch.Tensor], decode: str = "argmax") -> dict[str, torch.Tensor]:
+        """Predicted class index per parameter; `decode` (DECODINGS) reads a continuous
+        parameter's classification head. Shapes: {name: (B, width)} -> {name: (B,)}."""
         out = {}
         for spec in self.specs:
             name = spec["name"]
-            if self.modes[name] == "cls":
-                out[name] = outputs[name].argmax(dim=1)
-            else:
+            if self.modes[name] == "reg":
                 out[name] = regression_classes(outputs[name], spec)
+            elif decode == "median" and spec["continuous"]:
+                out[name] = median_classes(outputs[name], spec)
+            else:
+                out[name] = outputs[name].argmax(dim=1)
         return out
 
 
@@ -181,6 +187,20 @@ def regression_loss(pred: torch.Tensor, target: torch.Tensor, spec: Mapping) -> 
     if spec["existence"]:
         loss = loss + F.mse_loss(pred[:, 1], (~visible).to(pred.dtype))
     return loss
+
+
+def median_classes(logits: torch.Tensor, spec: Mapping) -> torch.Tensor:
+    """The median of the predicted distribution over a continuous parameter's value classes
+    (ordered, evenly spaced): the class that minimises the expected distance to the true
+    value, where the argmax can pick one end of a spread distribution. The existence class
+    where it is the likeliest. Shapes: logits (B, n_classes) -> (B,) int64."""
+    n_values = _n_values(spec)
+    probs = torch.softmax(logits, dim=1)  # (B, n_classes)
+    cdf = probs[:, :n_values].cumsum(dim=1)  # (B, n_values)
+    median = (cdf < 0.5 * cdf[:, -1:]).sum(dim=1).clamp(max=n_values - 1)  # (B,)
+    if spec["existence"]:
+        median = torch.where(logits.argmax(dim=1) == n_values, torch.full_like(median, n_values), median)
+    return median
 
 
 def regression_classes(pred: torch.Tensor, spec: Mapping) -> torch.Tensor:

@@ -143,18 +143,19 @@ class Network:
                 out.setdefault(modality, {}).update(heads)
         return out
 
-    def classes(self, outputs: Mapping[str, torch.Tensor], modality: str) -> torch.Tensor:
-        """Head outputs of one modality -> class indices. Shapes: -> (B, P) int64."""
+    def classes(self, outputs: Mapping[str, torch.Tensor], modality: str, decode: str = "argmax") -> torch.Tensor:
+        """Head outputs of one modality -> class indices (`decode`: heads.DECODINGS).
+        Shapes: -> (B, P) int64."""
         found: dict[str, torch.Tensor] = {}
         for branch in self.branches:
-            found.update(branch.decoder(modality).classes(outputs))
+            found.update(branch.decoder(modality).classes(outputs, decode))
         return torch.stack([found[name] for name in self.parameter_names], dim=1)
 
     @torch.inference_mode()
-    def predict_classes(self, points=None, sketches=None) -> dict[str, torch.Tensor]:
+    def predict_classes(self, points=None, sketches=None, decode: str = "argmax") -> dict[str, torch.Tensor]:
         """Eval-mode class indices per modality. Shapes: -> {modality: (B, P) int64}."""
         outputs = self(points, sketches)
-        return {m: self.classes(o, m) for m, o in outputs.items()}
+        return {m: self.classes(o, m, decode) for m, o in outputs.items()}
 
 
 class GeoCodeNet(Network, nn.Module):
