@@ -15,9 +15,6 @@ import torch.nn.functional as F
 from torch import nn
 
 LEAKY_SLOPE = 0.2
-# How a continuous parameter's class is read from its classification head: the likeliest
-# class (the paper's) or the median of the predicted distribution (docs/fidelity.md).
-DECODINGS = ("argmax", "median")
 
 
 def head_specs(recipe) -> list[dict]:
@@ -130,8 +127,8 @@ class Decoders(nn.Module):
         return total
 
     def classes(self, outputs: Mapping[str, torch.Tensor], decode: str = "argmax") -> dict[str, torch.Tensor]:
-        """Predicted class index per parameter; `decode` (DECODINGS) reads a continuous
-        parameter's classification head. Shapes: {name: (B, width)} -> {name: (B,)}."""
+        """Predicted class index per parameter; `decode` (eval.decode: argmax or median) reads a
+        continuous parameter's classification head. Shapes: {name: (B, width)} -> {name: (B,)}."""
         out = {}
         for spec in self.specs:
             name = spec["name"]

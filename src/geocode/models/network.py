@@ -144,7 +144,7 @@ class Network:
         return out
 
     def classes(self, outputs: Mapping[str, torch.Tensor], modality: str, decode: str = "argmax") -> torch.Tensor:
-        """Head outputs of one modality -> class indices (`decode`: heads.DECODINGS).
+        """Head outputs of one modality -> class indices (`decode`: eval.decode).
         Shapes: -> (B, P) int64."""
         found: dict[str, torch.Tensor] = {}
         for branch in self.branches:
