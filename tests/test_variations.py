@@ -219,3 +219,13 @@ def test_domain_variations_replace_a_domains_split_counts():
     assert split_variations(cfg, "chair") == {"train": 2, "val": 1, "test": 1}
     assert split_variations(compose(["data.domain_variations=null"]), "ceiling_lamp")["train"] == 2
     assert split_variations(compose(["++data.domain_variations.chair.train=3"]), "chair")["train"] == 3
+
+
+def test_domain_epochs_replace_a_domains_max_epochs():
+    """train.domain_epochs gives one domain more epochs; a variant's share applies to them."""
+    from geocode.config import compose, max_epochs
+
+    cfg = compose(["domain=vase", "train.max_epochs=16", "train.domain_epochs={vase: 20}",
+                   "train.variant_epochs.huang=0.375"])
+    assert max_epochs(cfg, "joint") == 20 and max_epochs(cfg, "huang") == 8     # the step's own domain
+    assert max_epochs(cfg, "joint", "chair") == 16 and max_epochs(cfg, "huang", "chair") == 6

@@ -488,7 +488,13 @@ def cmd_tables(args):
 
     cfg = step_config(args)
     metrics = pd.concat([read_parquet(p, "rerun the metrics step") for p in args.metrics], ignore_index=True)
-    epochs = ", ".join(f"{v} {max_epochs(cfg, v)}" for v in sorted(metrics.variant.unique()))
+    def epochs_of(variant):  # "16" or "16 (vase 20)": the common count, then the domains that differ
+        counts = {d: max_epochs(cfg, variant, d) for d in sorted(metrics.domain.unique())}
+        common = max_epochs(cfg, variant, "")
+        others = ", ".join(f"{d} {n}" for d, n in counts.items() if n != common)
+        return f"{common}" + (f" ({others})" if others else "")
+
+    epochs = ", ".join(f"{v} {epochs_of(v)}" for v in sorted(metrics.variant.unique()))
     shapes = len(metrics[["domain", "id"]].drop_duplicates())    # ids repeat across domains
     header = (f"profile {cfg.profile_name}, config {config_hash(cfg)}, {shapes} test shapes in "
               f"{metrics.domain.nunique()} domains; max epochs: {epochs}")

@@ -132,6 +132,8 @@ _DOMAIN_VARIATIONS = ("null or a mapping {<domain>: {train|val|test: a whole num
                       lambda v: v is None or isinstance(v, DictConfig) and all(
                           isinstance(splits, DictConfig) and all(s in SPLITS and _whole(1)[1](n) for s, n in splits.items())
                           for splits in v.values()))
+_DOMAIN_EPOCHS = ("null or a mapping {<domain>: a whole number >= 1}",
+                  lambda v: v is None or isinstance(v, DictConfig) and all(_whole(1)[1](n) for n in v.values()))
 _CHANNELS = ("a list of whole numbers >= 1 and M (2x2 max-pool)",
              lambda v: isinstance(v, ListConfig) and all(x == "M" or _whole(1)[1](x) for x in v))
 
@@ -172,6 +174,8 @@ SETTINGS = {key: Setting(meaning, *rule) for key, (meaning, rule) in {
     "model.embedding_norm": ("a BatchNorm per modality on the encoders' embeddings", _FLAG),
     "model.fast": ("the fast exact EdgeConv (false: the reference implementation)", _FLAG),
     "train.max_epochs": ("training epochs", _whole(1)),
+    "train.domain_epochs": ("per-domain replacements of train.max_epochs, {<domain>: N}: "
+                            "more epochs for the domains that need them", _DOMAIN_EPOCHS),
     "train.batch_size": ("items per batch", _whole(1)),
     "train.lr": ("Adam learning rate", _number(0, above=True)),
     "train.step_size": ("StepLR period, in epochs", _whole(1)),
@@ -222,7 +226,7 @@ SETTINGS = {key: Setting(meaning, *rule) for key, (meaning, rule) in {
 }.items()}
 
 
-MAPPINGS = {"data.domain_variations"}  # settings whose value is a whole mapping (its keys are domains)
+MAPPINGS = {"data.domain_variations", "train.domain_epochs"}  # settings whose value is a whole mapping (its keys are domains)
 
 
 def flat(cfg: DictConfig, prefix: str = "") -> dict[str, object]:
@@ -277,10 +281,10 @@ def _check_known(cfg: DictConfig) -> None:
                               f"use one of {', '.join(known) or 'none (add a program and its recipe)'}")
     # the profiles name the project's domains; a programs folder of one's own may lack them
     shipped = {p.stem for p in (repo_root() / "programs").glob("*.yaml")}
-    for name in cfg.data.domain_variations or {}:
-        if name not in {*known, *shipped}:
-            raise ConfigError(f"data.domain_variations.{name}", "no such domain",
-                              f"use one of {', '.join(known) or 'none'}")
+    for key in ("data.domain_variations", "train.domain_epochs"):
+        for name in OmegaConf.select(cfg, key) or {}:
+            if name not in {*known, *shipped}:
+                raise ConfigError(f"{key}.{name}", "no such domain", f"use one of {', '.join(known) or 'none'}")
     variants = group_options("model")
     for key, names in (("model.variant", [cfg.model.variant]), ("eval.variants", cfg.eval.variants),
                        ("eval.ablations", cfg.eval.ablations)):
@@ -362,11 +366,13 @@ def split_variations(cfg: DictConfig, domain: str) -> dict[str, int]:
     return {**cfg.data.variations, **(cfg.data.domain_variations or {}).get(domain, {})}
 
 
-def max_epochs(cfg: DictConfig, variant: str) -> int:
-    """train.max_epochs times the variant's share in train.variant_epochs (baselines and
-    ablations trained beside the joint model on a smaller budget)."""
+def max_epochs(cfg: DictConfig, variant: str, domain: str | None = None) -> int:
+    """The domain's epochs (train.max_epochs, or its entry in train.domain_epochs) times the
+    variant's share in train.variant_epochs (baselines and ablations trained beside the joint
+    model on a smaller budget). domain: cfg.domain.name unless given."""
+    epochs = (cfg.train.domain_epochs or {}).get(cfg.domain.name if domain is None else domain, cfg.train.max_epochs)
     share = float(cfg.train.variant_epochs.get(variant, 1.0))
-    return max(1, round(int(cfg.train.max_epochs) * share))
+    return max(1, round(int(epochs) * share))
 
 
 def simplified_split(factor: int) -> str:
