@@ -489,7 +489,7 @@ def cmd_tables(args):
     cfg = step_config(args)
     metrics = pd.concat([read_parquet(p, "rerun the metrics step") for p in args.metrics], ignore_index=True)
     def epochs_of(variant):  # "16" or "16 (vase 20)": the common count, then the domains that differ
-        counts = {d: max_epochs(cfg, variant, d) for d in sorted(metrics.domain.unique())}
+        counts = {d: max_epochs(cfg, variant, d) for d in sorted(metrics[metrics.variant == variant].domain.unique())}
         common = max_epochs(cfg, variant, "")
         others = ", ".join(f"{d} {n}" for d, n in counts.items() if n != common)
         return f"{common}" + (f" ({others})" if others else "")
