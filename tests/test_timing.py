@@ -14,24 +14,24 @@ def record(folder, output, rule, start, end, log=None, job=1):
 
 
 def test_job_times_per_stage_and_domain(tmp_path, capsys):
-    record(tmp_path, "data/mini/vase/train/done/export-0.txt", "export", 100, 160, "logs/mini/export/vase-train-0.log")
-    record(tmp_path, "data/mini/vase/train/done/export-1.txt", "export", 100, 130, "logs/mini/export/vase-train-1.log", 2)
-    record(tmp_path, "runs/mini/chair/joint/checkpoints/best.ckpt", "train", 160, 400, "logs/mini/train/chair-joint.log", 3)
-    record(tmp_path, "runs/mini/chair/joint/checkpoints/last.ckpt", "train", 160, 400, "logs/mini/train/chair-joint.log", 3)
-    record(tmp_path, "build/programs/vase.blend", "program", 50, 55, "logs/mini/program/vase.log", 4)
-    record(tmp_path, "results/tables", "tables", 400, 460, "logs/mini/tables.log", 5)
-    record(tmp_path, "data/smoke/vase/train/done/export-0.txt", "export", 0, 9, "logs/smoke/export/vase-train-0.log", 6)
+    record(tmp_path, "data/mini/vase/train/done/export-0.txt", "export", 100, 160, "logs/data/mini/export/vase-train-0.log")
+    record(tmp_path, "data/mini/vase/train/done/export-1.txt", "export", 100, 130, "logs/data/mini/export/vase-train-1.log", 2)
+    record(tmp_path, "runs/mini/chair/joint/checkpoints/best.ckpt", "train", 160, 400, "logs/runs/mini/train/chair-joint.log", 3)
+    record(tmp_path, "runs/mini/chair/joint/checkpoints/last.ckpt", "train", 160, 400, "logs/runs/mini/train/chair-joint.log", 3)
+    record(tmp_path, "build/programs/vase.blend", "program", 50, 55, "logs/build/program/vase.log", 4)
+    record(tmp_path, "results/tables", "tables", 400, 460, "logs/runs/mini/tables.log", 5)
+    record(tmp_path, "data/smoke/vase/train/done/export-0.txt", "export", 0, 9, "logs/data/smoke/export/vase-train-0.log", 6)
     (tmp_path / "not-base64!").write_text("{}")
     jobs = run_times(tmp_path, "mini", ["vase", "chair"], ["joint", "huang"])
-    assert len(jobs) == 5                                   # one job per hash, smoke's left out
+    assert len(jobs) == 4           # one job per hash; smoke's and the shared program build left out
     per = jobs.groupby(["rule", "domain"]).seconds.sum()
     assert per[("export", "vase")] == 90 and per[("train", "chair")] == 240 and per[("tables", "-")] == 60
     text = run_summary(jobs)
-    assert "6.8 min over 5 jobs" in text and "joint 4.0" in text    # 50 .. 460 s
+    assert "6.0 min over 4 jobs" in text and "joint 4.0" in text    # 100 .. 460 s
     assert main(["timings", "--metadata", str(tmp_path), "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
-    assert out["wall_min"] == 6.83 and out["minutes"]["train"]["chair"] == 4.0
-    assert out["variant_minutes"] == {"-": 2.58, "joint": 4.0}
+    assert out["wall_min"] == 6.0 and out["minutes"]["train"]["chair"] == 4.0
+    assert out["variant_minutes"] == {"-": 2.5, "joint": 4.0}
 
 
 def test_no_records_is_one_line(tmp_path, capsys):

@@ -74,7 +74,8 @@ def run_times(metadata: str | Path, profile: str, domains: list[str], variants: 
     """Seconds per job of the last Snakemake run of a profile, from Snakemake's record of each
     output (`.snakemake/metadata/`: rule, start and end time): one row per job with its rule,
     domain ("-" for a job of every domain), model variant ("-" for the data), start, end and
-    seconds."""
+    seconds. A job is the profile's when the profile names a folder of its output or log path;
+    the program builds, shared by every profile, are no profile's."""
     jobs = {}
     for path in Path(metadata).glob("*"):
         try:

@@ -45,7 +45,8 @@ SHARDS = list(range(CFG.data.shards))
 DATA = CFG.paths.data
 RUNS = CFG.paths.runs
 BUILD = CFG.paths.build
-LOGS = f"logs/{PROFILE}"
+# A job logs under logs/<the folder it writes or, for tables and report, reads>: logs/data/mini/
+# sketch/, logs/runs/mini/train/; an experiment with its own paths.runs keeps its own logs.
 PROGRAMS = programs_dir()
 # (domain, variant) of every model trained: eval.variants for each domain, plus its ablations.
 RUNS_TRAINED = [(d, v) for d in DOMAINS for v in variants(CFG, d)]

@@ -9,7 +9,7 @@ rule sample:
     output:
         expand(f"{DATA}/{{{{domain}}}}/{{split}}/recipes.parquet", split=SPLITS),
     log:
-        f"{LOGS}/sample/{{domain}}.log",
+        f"logs/{DATA}/sample/{{domain}}.log",
     params:
         args=lambda w: step_args(w.domain),
     threads: 1
@@ -28,7 +28,7 @@ rule export:
     wildcard_constraints:
         split="train|val|test",  # test-s<factor> copies come from rule simplify
     log:
-        f"{LOGS}/export/{{domain}}-{{split}}-{{shard}}.log",
+        f"logs/{DATA}/export/{{domain}}-{{split}}-{{shard}}.log",
     params:
         args=lambda w: step_args(w.domain),
     threads: 1
@@ -44,7 +44,7 @@ rule sketch:
     output:
         f"{DATA}/{{domain}}/{{split}}/done/sketch-{{shard}}.txt",
     log:
-        f"{LOGS}/sketch/{{domain}}-{{split}}-{{shard}}.log",
+        f"logs/{DATA}/sketch/{{domain}}-{{split}}-{{shard}}.log",
     params:
         args=lambda w: step_args(w.domain),
     threads: 1
@@ -60,7 +60,7 @@ rule points:
     output:
         f"{DATA}/{{domain}}/{{split}}/done/points-{{shard}}.txt",
     log:
-        f"{LOGS}/points/{{domain}}-{{split}}-{{shard}}.log",
+        f"logs/{DATA}/points/{{domain}}-{{split}}-{{shard}}.log",
     params:
         args=lambda w: step_args(w.domain),
     threads: 1

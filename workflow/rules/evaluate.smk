@@ -10,7 +10,7 @@ rule simplify:
         recipes=f"{DATA}/{{domain}}/test-s{{factor}}/recipes.parquet",
         done=expand(f"{DATA}/{{{{domain}}}}/test-s{{{{factor}}}}/done/export-{{shard}}.txt", shard=SHARDS),
     log:
-        f"{LOGS}/simplify/{{domain}}-{{factor}}.log",
+        f"logs/{DATA}/simplify/{{domain}}-{{factor}}.log",
     params:
         args=lambda w: step_args(w.domain),
     threads: 1
@@ -27,7 +27,7 @@ rule predict:
     output:
         f"{RUNS}/{{domain}}/{{variant}}/eval/predictions.parquet",
     log:
-        f"{LOGS}/predict/{{domain}}-{{variant}}.log",
+        f"logs/{RUNS}/predict/{{domain}}-{{variant}}.log",
     params:
         args=lambda w: step_args(w.domain),
     threads: 2
@@ -43,7 +43,7 @@ rule rebuild:
     output:
         f"{RUNS}/{{domain}}/{{variant}}/eval/rebuilt/done-{{shard}}.txt",
     log:
-        f"{LOGS}/rebuild/{{domain}}-{{variant}}-{{shard}}.log",
+        f"logs/{RUNS}/rebuild/{{domain}}-{{variant}}-{{shard}}.log",
     params:
         args=lambda w: step_args(w.domain),
     threads: 1
@@ -61,7 +61,7 @@ rule metrics:
     output:
         f"{RUNS}/{{domain}}/{{variant}}/eval/metrics.parquet",
     log:
-        f"{LOGS}/metrics/{{domain}}-{{variant}}.log",
+        f"logs/{RUNS}/metrics/{{domain}}-{{variant}}.log",
     params:
         args=lambda w: step_args(w.domain),
     threads: 1

@@ -9,7 +9,7 @@ rule program:
         blend=f"{BUILD}/programs/{{domain}}.blend",
         manifest=f"{BUILD}/programs/{{domain}}.manifest.json",
     log:
-        f"{LOGS}/program/{{domain}}.log",
+        f"logs/{BUILD}/program/{{domain}}.log",
     threads: 1
     resources:
         mem_mb=2000,

@@ -8,7 +8,7 @@ rule tables:
     output:
         directory("results/tables"),
     log:
-        f"{LOGS}/tables.log",
+        f"logs/{RUNS}/tables.log",
     params:
         args=" ".join(shlex.quote(o) for o in OVERRIDES),
     threads: 1
@@ -25,7 +25,7 @@ rule report:
     output:
         "results/report/index.html",
     log:
-        f"{LOGS}/report.log",
+        f"logs/{RUNS}/report.log",
     params:
         args=" ".join(shlex.quote(o) for o in OVERRIDES),
     threads: 1

@@ -9,7 +9,7 @@ rule train:
     output:
         f"{RUNS}/{{domain}}/{{variant}}/checkpoints/best.ckpt",
     log:
-        f"{LOGS}/train/{{domain}}-{{variant}}.log",
+        f"logs/{RUNS}/train/{{domain}}-{{variant}}.log",
     params:
         args=lambda w: step_args(w.domain),
         out=f"{RUNS}/{{domain}}/{{variant}}",
