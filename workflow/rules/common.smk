@@ -37,7 +37,6 @@ try:
 except ConfigError as exc:
     raise WorkflowError(f"--config: {exc}") from None
 
-PROFILE = CFG.profile_name
 CONFIG_HASH = config_hash(CFG)
 DOMAINS = domains(CFG)
 SPLITS = ["train", "val", "test"]
