@@ -1,5 +1,7 @@
 """train(cfg) on the synthetic dataset of test_training_data: one epoch, resume, predict, bad checkpoints."""
 
+import json
+import logging
 from pathlib import Path
 
 import numpy as np
@@ -144,3 +146,25 @@ def test_network_defaults_are_the_training_modules_and_fill_old_checkpoints(run,
     old = tmp_path / "old.ckpt"
     torch.save(ckpt, old)
     assert load_model(old).hparams.get("embedding_norm") is None and not load_model(old).branches[0].norms
+
+
+def test_a_changed_program_trains_afresh_and_sets_the_old_run_aside(tmp_path, caplog):
+    """The run folder is keyed to the program's manifest: after the program changes (here its
+    `legs` range widens, which also changes a head), training starts afresh instead of
+    refusing the old last.ckpt, and the old run moves into stale-<its key>/ with one log line."""
+    with toy_config(tmp_path, 1, "train.limit_train_batches=1") as cfg:
+        first = train(cfg)
+        manifest = Path(cfg.paths.build) / "programs" / f"{DOMAIN}.manifest.json"
+        changed = json.loads(manifest.read_text())
+        changed["parameters"][3]["max"] = 3
+        changed["geometry"] = "another fingerprint"
+        manifest.write_text(json.dumps(changed))
+        with caplog.at_level(logging.WARNING, logger="geocode.train"):
+            second = train(cfg)
+    out, stale = Path(second["out_dir"]), Path(second["out_dir"]) / f"stale-{first['program']}"
+    assert second["resumed"] is False and second["program"] != first["program"]
+    assert (stale / "checkpoints" / "last.ckpt").exists() and (stale / "logs" / "version_0").exists()
+    assert (out / "logs" / "version_0").exists() and not (out / "logs" / "version_1").exists()
+    assert [r.levelname for r in caplog.records if "another version of the program" in r.getMessage()] == ["WARNING"]
+    assert torch.load(second["last"], weights_only=True)["program"] == second["program"]
+    assert load_model(second["best"]).hparams.heads[3]["n_classes"] == 4

@@ -7,6 +7,7 @@
 
 from __future__ import annotations
 
+import hashlib
 import json
 import logging
 import sys
@@ -17,6 +18,7 @@ import pandas as pd
 import pytorch_lightning as pl
 from omegaconf import DictConfig, OmegaConf
 
+from geocode import settings as schema
 from geocode.checkpoints import (  # noqa: F401  (load_model, predict, predict_classes: this module's API too)
     CheckpointError,
     check_recipe,
@@ -26,12 +28,12 @@ from geocode.checkpoints import (  # noqa: F401  (load_model, predict, predict_c
     read_checkpoint,
     recipe_stamp,
 )
-from geocode.config import max_epochs
+from geocode.config import max_epochs, settings
 from geocode.errors import UserError, one_line
 from geocode.meshio import write_text
 from geocode.models.bench import bench_train
 from geocode.models.module import MODALITIES, GeoCodeModule
-from geocode.recipe import load_recipe
+from geocode.recipe import load_recipe, manifest_path
 
 log = logging.getLogger(__name__)
 
@@ -46,17 +48,17 @@ SUMMARY = "summary.json"  # in the run folder: the best scores and the majority 
 
 def camera_names(cfg: DictConfig) -> list[str]:
     """Training cameras: cfg.data.sketch.cameras entries with train: true."""
-    return [str(c.name) for c in cfg.data.sketch.cameras if c.get("train", False)]
+    return [c.name for c in settings(cfg).data.sketch.cameras if c.train]
 
 
 def variant(cfg: DictConfig) -> str:
-    return str(cfg.model.get("variant", "joint"))
+    return str(cfg.model.variant)
 
 
 def run_dir(cfg: DictConfig, out_dir: str | Path | None) -> Path:
     if out_dir is not None:
         return Path(out_dir)
-    if cfg.train.get("out_dir"):
+    if cfg.train.out_dir:
         return Path(cfg.train.out_dir)
     return Path(cfg.paths.runs) / cfg.domain.name / variant(cfg)
 
@@ -69,45 +71,44 @@ def build_model(cfg: DictConfig, recipe) -> GeoCodeModule:
     from geocode.config import KEYS_HINT, ConfigError
     from geocode.models.heads import head_specs
 
+    t = settings(cfg).train
     try:
         return instantiate(
-            cfg.model, heads=head_specs(recipe), lr=float(cfg.train.lr),
-            step_size=int(cfg.train.step_size), gamma=float(cfg.train.gamma),
-            schedule=str(cfg.train.get("schedule", "step")), warmup_epochs=int(cfg.train.get("warmup_epochs", 0)),
-            modalities=list(cfg.train.get("modalities") or MODALITIES), _convert_="all",
+            cfg.model, heads=head_specs(recipe), lr=t.lr, step_size=t.step_size, gamma=t.gamma,
+            schedule=t.schedule, warmup_epochs=t.warmup_epochs, modalities=t.modalities, _convert_="all",
         )
     except InstantiationException as exc:
         raise ConfigError("model", f"cannot be built ({one_line(exc.__cause__ or exc)})", KEYS_HINT) from None
 
 
-class RecipeStamp(pl.Callback):
-    """Writes `recipe_stamp(recipe)` into every checkpoint as "recipe"."""
+class RunStamp(pl.Callback):
+    """Writes into every checkpoint what it was trained on: `recipe_stamp(recipe)` as "recipe"
+    and the program's manifest key as "program"."""
 
-    def __init__(self, recipe):
-        self.stamp = recipe_stamp(recipe)
+    def __init__(self, recipe, program: str):
+        self.recipe, self.program = recipe_stamp(recipe), program
 
     def on_save_checkpoint(self, trainer, pl_module, checkpoint):
-        checkpoint["recipe"] = self.stamp
+        checkpoint["recipe"] = self.recipe
+        checkpoint["program"] = self.program
 
 
 def build_datamodule(cfg: DictConfig, recipe, modalities=MODALITIES):
     from geocode.training_data import GeoCodeDataModule, PointAugment, SketchAugment
 
-    t = cfg.train
-    aug = OmegaConf.to_container(t.augment, resolve=True) if t.get("augment") else {}
-    point_aug = OmegaConf.to_container(t.augment_points, resolve=True) if t.get("augment_points") else {}
+    s = settings(cfg)
     return GeoCodeDataModule(
-        root=Path(cfg.paths.data) / cfg.domain.name,
+        root=Path(s.paths.data) / s.domain.name,
         recipe=recipe,
         cameras=camera_names(cfg),
-        n_random=int(cfg.data.points.train_random),
-        batch_size=int(t.batch_size),
-        num_workers=int(t.get("num_workers", 0)),
-        augment=SketchAugment(**aug),
-        eval_camera=t.get("eval_camera"),
-        point_augment=PointAugment(**point_aug),
+        n_random=s.data.points.train_random,
+        batch_size=s.train.batch_size,
+        num_workers=s.train.num_workers,
+        augment=SketchAugment(**s.train.augment.model_dump()),
+        eval_camera=s.train.eval_camera,
+        point_augment=PointAugment(**s.train.augment_points.model_dump()),
         modalities=list(modalities),
-        seed=int(cfg.seed),
+        seed=s.seed,
     )
 
 
@@ -134,37 +135,24 @@ def train(cfg: DictConfig, out_dir: str | Path | None = None) -> dict:
     from pytorch_lightning.callbacks import ModelCheckpoint
     from pytorch_lightning.loggers import CSVLogger, TensorBoardLogger
 
-    t = cfg.train
     out = run_dir(cfg, out_dir)
     ckpt_dir = out / "checkpoints"
     pl.seed_everything(int(cfg.seed), workers=True)
     recipe = load_recipe(cfg)
+    program = program_key(cfg)
     model = build_model(cfg, recipe)
     data = build_datamodule(cfg, recipe, model.modalities)   # huang reads no clouds
     data.setup("fit")  # read (and check) the data before the run folder is made; kept for fit
     last = ckpt_dir / "last.ckpt"
+    best_cb = ModelCheckpoint(dirpath=ckpt_dir, filename="best", monitor="val/acc", mode="max",
+                              save_last=True, enable_version_counter=False)
+    trainer = trainer_for(settings(cfg).train, max_epochs=max_epochs(cfg, variant(cfg)), default_root_dir=out,
+                          callbacks=[best_cb, EpochLog(), RunStamp(recipe, program)])
+    set_aside_if_stale(out, program)      # once the Trainer is sure to start
     resume = last if last.exists() else None
     if resume is not None:
         check_compatible(resume, model)
-    best_cb = ModelCheckpoint(dirpath=ckpt_dir, filename="best", monitor="val/acc", mode="max",
-                              save_last=True, enable_version_counter=False)
-    progress = t.get("progress_bar")
-    trainer = trainer_for(
-        t,
-        max_epochs=max_epochs(cfg, variant(cfg)),
-        accelerator=t.get("accelerator", "auto"),
-        devices=t.get("devices", "auto"),
-        deterministic=t.get("deterministic", False),
-        default_root_dir=out,
-        logger=[CSVLogger(out, name="logs"), TensorBoardLogger(out, name="tb")],  # version_<n> per (re)start
-        callbacks=[best_cb, EpochLog(), RecipeStamp(recipe)],
-        enable_progress_bar=sys.stderr.isatty() if progress is None else bool(progress),
-        enable_model_summary=False,
-        limit_train_batches=t.get("limit_train_batches") or 1.0,
-        limit_val_batches=t.get("limit_val_batches") or 1.0,
-        log_every_n_steps=int(t.get("log_every_n_steps", 10)),
-        num_sanity_val_steps=0,
-    )
+    trainer.loggers = [CSVLogger(out, name="logs"), TensorBoardLogger(out, name="tb")]  # version_<n> per (re)start
     write_text(out / "config.yaml", OmegaConf.to_yaml(cfg, resolve=True))  # the run folder's first file
     trainer.fit(model, datamodule=data, ckpt_path=resume, weights_only=True)
     score = best_cb.best_model_score
@@ -181,6 +169,7 @@ def train(cfg: DictConfig, out_dir: str | Path | None = None) -> dict:
         "majority_per_parameter": majority,
         "epochs": int(trainer.current_epoch),
         "resumed": resume is not None,
+        "program": program,
     }
     write_text(out / SUMMARY, json.dumps(result, indent=1) + "\n")
     log.info("trained %s: %s", cfg.domain.name, result)
@@ -197,13 +186,20 @@ def epoch_metrics(run: str | Path) -> pd.DataFrame:
     return rows.drop(columns=["step"], errors="ignore").groupby("epoch").last()
 
 
-def trainer_for(t: DictConfig, **settings) -> pl.Trainer:
-    """A Lightning Trainer; an accelerator or device count this machine lacks is the user's
-    config to fix (before the run folder is made)."""
+def trainer_for(t: schema.Train, **wiring) -> pl.Trainer:
+    """A Lightning Trainer: its settings from train.* (limit_*: null is Lightning's all), its
+    run folder, epochs and callbacks from `wiring`, its loggers set by the caller. An
+    accelerator or device count this machine lacks is the user's config to fix."""
     from lightning_fabric.utilities.exceptions import MisconfigurationException
 
     try:
-        return pl.Trainer(**settings)
+        return pl.Trainer(
+            accelerator=t.accelerator, devices=t.devices, deterministic=t.deterministic,
+            limit_train_batches=t.limit_train_batches, limit_val_batches=t.limit_val_batches,
+            log_every_n_steps=t.log_every_n_steps,
+            enable_progress_bar=sys.stderr.isatty() if t.progress_bar is None else t.progress_bar,
+            enable_model_summary=False, num_sanity_val_steps=0, logger=False, **wiring,
+        )
     except MisconfigurationException as exc:
         raise UserError(f"train.accelerator={t.accelerator}, train.devices={t.devices}", one_line(exc),
                         "choose what this machine has (auto finds it)") from None
@@ -228,6 +224,34 @@ def majority_per_parameter(cfg: DictConfig, recipe) -> dict[str, float]:
 
 
 # ---------------------------------------------------------------- checkpoints
+
+
+def program_key(cfg: DictConfig) -> str:
+    """The key of the domain's program: a hash of its manifest (parameters, visibility rules
+    and the fingerprint of its geometry), so that a changed program has another key."""
+    manifest = json.loads(manifest_path(cfg, cfg.domain.name).read_text())
+    return hashlib.sha1(json.dumps(manifest, sort_keys=True).encode()).hexdigest()[:10]
+
+
+def set_aside_if_stale(out: Path, program: str) -> None:
+    """A run folder whose last checkpoint was trained on another version of the program
+    (another manifest key) is moved into <out>/stale-<its key>/, so that training starts
+    afresh; a checkpoint from before the key is resumed as before."""
+    last = out / "checkpoints" / "last.ckpt"
+    theirs = read_checkpoint(last).get("program") if last.exists() else None
+    if theirs is None or theirs == program:
+        return
+    aside = out / f"stale-{theirs}"
+    for n in range(2, 1000):
+        if not aside.exists():
+            break
+        aside = out / f"stale-{theirs}-{n}"
+    aside.mkdir()
+    for entry in sorted(out.iterdir()):
+        if entry != aside and not entry.name.startswith("stale-"):
+            entry.rename(aside / entry.name)
+    log.warning("%s: trained on another version of the program (manifest key %s, now %s); moved to %s, "
+                "training afresh", out, theirs, program, aside)
 
 
 def check_compatible(path: Path, model: GeoCodeModule) -> None:
