@@ -160,6 +160,19 @@ def test_manifest_round_trips_through_the_recipe_reader(toy):
         {k: None if v is None else str(v) for k, v in toy.visibility().items()}
 
 
+def test_the_manifest_fingerprints_the_geometry(programs, toy, blender):
+    """The same program gives the same fingerprint; a change to its geometry alone (no
+    parameter changes) gives another, and so another manifest."""
+    first = toy.manifest()
+    assert first["geometry"] == toy.fingerprint() and len(first["geometry"]) == 16
+    (programs / "toy2.py").write_text(TOY.replace("cube(g, 1.0, 0)", "cube(g, 1.5, 0)"))
+    changed = Program.load("toy2")
+    assert [p.name for p in changed.parameters] == [p.name for p in toy.parameters]
+    assert changed.fingerprint() != first["geometry"]
+    blender.ops.wm.read_factory_settings(use_empty=True)
+    assert Program.load("toy").fingerprint() == first["geometry"]
+
+
 def test_save_blend_holds_the_program_tree(toy, tmp_path, blender):
     path = tmp_path / "out" / "toy.blend"
     toy.save_blend(path)

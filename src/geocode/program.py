@@ -10,6 +10,7 @@ beyond importing bpy lazily.
 
 from __future__ import annotations
 
+import hashlib
 import importlib.util
 import math
 import os
@@ -146,12 +147,27 @@ class Program:
         return Recipe.load(recipe_path(self.domain), self.parameters, self.visibility())
 
     def manifest(self) -> dict:
+        """What the steps without Blender know of the program: its parameters, their visibility
+        rules, whether it hangs, and the fingerprint of its geometry (a changed program has
+        another manifest, so training starts afresh: `geocode.train.program_key`)."""
         rules = self.visibility()
-        return {"domain": self.domain, "hangs": self.hangs, "parameters": [
+        return {"domain": self.domain, "hangs": self.hangs, "geometry": self.fingerprint(), "parameters": [
             {"name": p.name, "kind": p.kind, "min": p.min, "max": p.max, "default": p.default,
              "description": p.description,
              "visible_if": None if rules[p.name] is None else str(rules[p.name])}
             for p in self.parameters]}
+
+    def fingerprint(self) -> str:
+        """A hash of the meshes at the defaults and at the all-min and all-max corners
+        (vertices rounded to 1e-5, faces, part labels): three evaluations, and a change to
+        the geometry almost always shows in one of them."""
+        digest = hashlib.sha256()
+        for values in ({}, {p.name: p.min for p in self.parameters}, {p.name: p.max for p in self.parameters}):
+            mesh = self.evaluate(values)
+            digest.update((np.round(mesh.vertices, 5) + 0.0).tobytes())   # + 0.0 turns -0.0 into 0.0
+            digest.update(np.asarray(mesh.faces, dtype=np.int64).tobytes())
+            digest.update(np.asarray(mesh.metadata["part"], dtype=np.int64).tobytes())
+        return digest.hexdigest()[:16]
 
     def save_blend(self, path: str | os.PathLike) -> None:
         """Write the session (this program's object, its node tree and blocks) as a .blend
