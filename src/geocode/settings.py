@@ -351,6 +351,8 @@ def message(error: dict, data: dict) -> str:
     if error["type"] == "value_error":          # a validator's own "<problem>; <fix>"
         text = str(error["ctx"]["error"])
         return f"{where}: {text}" if where else text
+    if error["type"] == "extra_forbidden":
+        return f"{where}: unknown key; see `geocode config --keys` for the keys of each group"
     if entry is not None:
         return f"{where}={show(value)}: not {entry.WHAT}; give {entry.FORM}"
     if error["type"] == "missing":
@@ -364,9 +366,11 @@ def locate(loc: tuple, data) -> tuple[str, object, object, type[Item] | None]:
     the settings key an error location falls in; a group's own location has no field."""
     model, node, where, f = Settings, data, "", None
     for depth, part in enumerate(loc):
-        f = fields(model)[part]
+        f = fields(model).get(part)
         node = node.get(part) if isinstance(node, dict) else None
         where = f"{where}.{part}".lstrip(".")
+        if f is None:                           # a key the group does not have
+            break
         if sub := group_of(f.annotation):
             model, f = sub, None
             continue

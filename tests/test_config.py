@@ -1,0 +1,41 @@
+"""The settings models of `geocode.settings`: one idiom for every group, the YAML owning the
+defaults, the model variants derived from joint."""
+
+import pytest
+from omegaconf import OmegaConf
+
+from geocode.config import ConfigError, compose, settings
+from geocode.settings import MAPPINGS, Settings, check, documented_keys
+
+
+def test_every_key_of_every_profile_is_a_field_of_the_models():
+    for profile in ("mini", "smoke", "paper"):
+        s = settings(compose([f"profile={profile}"]))
+        assert isinstance(s, Settings) and s.profile_name == profile
+
+
+def test_the_models_give_every_key_a_meaning_and_valid_values():
+    keys = documented_keys()
+    assert {"seed", "paths.runs", "data.points.fps", "model._target_", "train.lr", "eval.fit"} <= set(keys)
+    assert all(meaning and valid for meaning, valid in keys.values())
+    assert MAPPINGS == {"data.domain_variations", "train.domain_epochs", "train.variant_epochs"}
+
+
+def test_a_key_the_models_do_not_know_is_refused():
+    plain = OmegaConf.to_container(compose([]), resolve=True)
+    plain["train"]["max_epoch"] = 3                        # a typo in a profile, say
+    with pytest.raises(ConfigError, match=r"^train.max_epoch: unknown key; see `geocode config --keys`"):
+        check(plain)
+
+
+def test_typed_values_come_back():
+    t = settings(compose(["profile=smoke", "train.limit_train_batches=2"])).train
+    assert t.limit_train_batches == 2 and isinstance(t.lr, float) and t.augment.flip == 0.5
+
+
+@pytest.mark.parametrize("variant, differs", [("regression", {}), ("separate", {}),
+                                              ("huang", {"embedding_norm": False})])
+def test_the_variants_are_joint_but_for_what_they_set(variant, differs):
+    joint = dict(compose(["model=joint"]).model)
+    other = dict(compose([f"model={variant}"]).model)
+    assert other == {**joint, "variant": variant, **differs}
