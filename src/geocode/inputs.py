@@ -50,8 +50,8 @@ MAIN_SHARE = 0.8               # the main group must hold this share of the area
 FLAT_SHARE = 0.01              # a piece thinner than this share of its size is flat (a plane)
 SCENE_RULE = (f"pieces whose bounding boxes lie within {GAP_SHARE:.0%} of the scene's diagonal "
               f"of each other form one object; the largest keeps the file if it holds "
-              f">= {MAIN_SHARE:.0%} of the area, and a flat piece under everything, wider than "
-              f"the rest, is a ground plane")
+              f">= {MAIN_SHARE:.0%} of the area (else all are kept); a flat piece at one end of "
+              f"the object and 1.5x wider than it is a ground plane, dropped")
 
 
 @dataclass
@@ -179,7 +179,7 @@ def _load(path: Path):
         fixed = re.sub(rb"^\s*OFF(?=[\s]*[-+\d])", b"OFF\n", data, count=1)
         return trimesh.load(io.BytesIO(fixed), file_type="off", process=False)
     if suffix == ".obj":   # one piece per `o`/`g` object, so that far-apart objects can be told
-        return trimesh.load(path, process=False, split_object=True, group_material=False)
+        return trimesh.load(path, process=False, split_objects=True, group_material=False)
     return trimesh.load(path, process=False)
 
 
@@ -209,25 +209,33 @@ def _box_gaps(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
     return np.linalg.norm(gap, axis=2)
 
 
-def _ground_planes(lo, hi) -> np.ndarray:
-    """Pieces that are flat, horizontal-or-not, lie at one end of the scene along their thin
-    axis and are wider than all the other pieces together along both other axes: a floor or
-    backdrop under the object, not a part of it."""
-    n = len(lo)
-    out = np.zeros(n, bool)
-    if n < 2:
-        return out
+def _groups(lo, hi, area, members):
+    """Proximity groups of the pieces `members` (indices): labels and each group's area."""
+    clo, chi = lo[members], hi[members]
+    diagonal = np.linalg.norm(chi.max(0) - clo.min(0))
+    _, label = connected_components(csr_matrix(_box_gaps(clo, chi) <= GAP_SHARE * diagonal),
+                                    directed=False)
+    return label, np.bincount(label, weights=area[members])
+
+
+def _ground_planes(lo, hi, area) -> np.ndarray:
+    """Flat pieces at one end, along their thin axis, of the main group of the other pieces
+    and wider than it by half along both other axes: a floor or backdrop under the object,
+    not a part of it (a floor touches everything, so it is set aside before grouping)."""
     size = hi - lo
-    for i in range(n):
+    flat = size.min(1) <= FLAT_SHARE * size.max(1)
+    solid = np.flatnonzero(~flat)
+    out = np.zeros(len(lo), bool)
+    if not len(solid) or not flat.any():
+        return out
+    label, group_area = _groups(lo, hi, area, solid)
+    main = solid[label == np.argmax(group_area)]
+    mlo, mhi = lo[main].min(0), hi[main].max(0)
+    for i in np.flatnonzero(flat):
         thin = int(np.argmin(size[i]))
-        if size[i, thin] > FLAT_SHARE * size[i].max():
-            continue
-        rest = np.delete(np.arange(n), i)
-        rlo, rhi = lo[rest].min(0), hi[rest].max(0)
-        wide = [a for a in range(3) if a != thin]
-        at_end = hi[i, thin] <= rlo[thin] + FLAT_SHARE * size[i].max() or \
-            lo[i, thin] >= rhi[thin] - FLAT_SHARE * size[i].max()
-        wider = all(size[i, a] > 1.5 * (rhi[a] - rlo[a]) for a in wide)
+        slack = FLAT_SHARE * size[i].max()
+        at_end = hi[i, thin] <= mlo[thin] + slack or lo[i, thin] >= mhi[thin] - slack
+        wider = all(size[i, a] > 1.5 * (mhi[a] - mlo[a]) for a in range(3) if a != thin)
         out[i] = at_end and wider
     return out
 
@@ -244,13 +252,9 @@ def keep_main_object(pieces: list[trimesh.Trimesh]) -> tuple[list[int], str]:
     lo = np.array([p.vertices.min(0) for p in pieces])
     hi = np.array([p.vertices.max(0) for p in pieces])
     area = np.array([p.area for p in pieces])
-    ground = _ground_planes(lo, hi)
-    candidates = np.flatnonzero(~ground) if (~ground).any() else np.arange(n)
-    clo, chi = lo[candidates], hi[candidates]
-    diagonal = np.linalg.norm(chi.max(0) - clo.min(0))
-    touching = _box_gaps(clo, chi) <= GAP_SHARE * diagonal
-    _, label = connected_components(csr_matrix(touching), directed=False)
-    group_area = np.bincount(label, weights=area[candidates])
+    ground = _ground_planes(lo, hi, area)
+    candidates = np.flatnonzero(~ground)
+    label, group_area = _groups(lo, hi, area, candidates)
     main = int(np.argmax(group_area))
     share = group_area[main] / max(group_area.sum(), 1e-300)
     keep = candidates[label == main] if share >= MAIN_SHARE else candidates
