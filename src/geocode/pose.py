@@ -37,6 +37,7 @@ def axis_rotation(label: str) -> np.ndarray:
     """The rotation (3x3) that turns the input's signed axis `label` ("+y", "-z", "y", ...)
     to +z by the shortest turn; "+y" is the quarter turn about X, (x, y, z) -> (x, -z, y),
     that `--up y` has always meant."""
+    given = label
     label = label.strip().lower()
     label = label if label[:1] in "+-" else "+" + label
     table = {
@@ -48,7 +49,7 @@ def axis_rotation(label: str) -> np.ndarray:
         "-x": [[0, 0, 1], [0, 1, 0], [-1, 0, 0]],
     }
     if label not in table:
-        raise UserError(f"--up {label}", "not an axis", "give auto, x, y, z, -x, -y or -z")
+        raise UserError(f"--up {given}", "not an axis", "give auto, x, y, z, -x, -y or -z")
     return np.array(table[label], dtype=np.float64)
 
 
