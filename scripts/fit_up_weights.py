@@ -44,8 +44,8 @@ def label_of(rotation):
 
 
 def shapes(domain, seeds):
-    from geocode.program import Program
     from geocode.points import sample_surface
+    from geocode.program import Program
     program = Program.load(domain)
     for s in seeds:
         rng = np.random.default_rng(s)

@@ -131,7 +131,7 @@ def _text_cloud(path: Path) -> np.ndarray:
     """x y z per row of a text file: leading lines that are not points (a header, a count,
     column names) are skipped; commas, semicolons or blanks separate; further columns
     (normals, colours, intensity) are ignored."""
-    with open(path, "r", errors="replace") as handle:
+    with open(path, errors="replace") as handle:
         head = [handle.readline() for _ in range(HEADER_LINES)]
     start = next((i for i, line in enumerate(head) if _is_point_line(line)), None)
     if start is None:
@@ -317,7 +317,7 @@ def sample_mesh(mesh: trimesh.Trimesh, n: int, rng: np.random.Generator) -> np.n
     totals = np.array([_chunk_areas(vertices, faces, s).sum() for s in starts])
     counts = rng.multinomial(n, totals / totals.sum())
     out = []
-    for start, count in zip(starts, counts):
+    for start, count in zip(starts, counts, strict=True):
         if count == 0:
             continue
         area = _chunk_areas(vertices, faces, start)
