@@ -114,3 +114,15 @@ def test_up_axis_on_program_shapes_turned_every_way(domain):
             if label == pose.AXES[k]:   # the rotation found brings the shape upright
                 assert np.allclose(rotation @ r @ [0, 0, 1], [0, 0, 1])
     assert np.mean(hits) >= BARS[domain], hits
+
+
+def test_a_mesh_is_normalised_by_its_vertices_as_the_dataset_is():
+    import trimesh
+
+    from geocode.inputs import Geometry, surface_points
+    from geocode.meshio import normalise_unit_sphere
+
+    mesh = trimesh.creation.box((0.4, 0.6, 1.0)).apply_translation((3, 4, 5))
+    samples = surface_points(Geometry(None, None, mesh, "mesh"), 2000, np.random.default_rng(0))
+    p = pose.find_pose(samples, up="z", extent=mesh.vertices)
+    assert np.allclose(p.to_canonical(mesh.vertices), normalise_unit_sphere(mesh).vertices)

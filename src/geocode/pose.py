@@ -274,11 +274,15 @@ def apply(matrix: np.ndarray, points: np.ndarray) -> np.ndarray:
 
 
 def find_pose(points: np.ndarray, up: str = "auto", domain: str | None = None, robust: bool = False,
-              seed: int = 0) -> Pose:
-    """The pose that brings `points` (input frame) Z-up into the unit sphere: up axis found
-    (`up="auto"`) or given ("y", "-z", ...), then centred and scaled by `normalise` in the
-    turned frame (the bounding box is taken Z-up, as the dataset's is)."""
+              seed: int = 0, extent: np.ndarray | None = None) -> Pose:
+    """The pose that brings `points` (input frame, surface samples) Z-up into the unit
+    sphere: up axis found (`up="auto"`, with `domain`'s weights) or given ("y", "-z", ...),
+    then centred and scaled by `normalise` in the turned frame (the bounding box taken Z-up,
+    as the dataset's is). `extent`: the points that set centre and scale instead, e.g. a
+    mesh's vertices, so that a mesh is normalised exactly as meshio.normalise_unit_sphere
+    does (its samples fall a little inside its vertices' box)."""
     pts = np.asarray(points, dtype=np.float64)
     rotation, label = up_axis(pts, domain, seed) if up == "auto" else (axis_rotation(up), up)
-    _, centre_rot, scale = normalise(pts @ rotation.T, robust)
+    frame = pts if extent is None else np.asarray(extent, dtype=np.float64)
+    _, centre_rot, scale = normalise(frame @ rotation.T, robust)
     return Pose(rotation, rotation.T @ centre_rot, scale, label if label[:1] in "+-" else "+" + label)
