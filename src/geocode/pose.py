@@ -1,0 +1,288 @@
+"""The pose of a user's shape in the programs' frame: Z up, unit sphere, front searched.
+
+The programs build furniture standing on the floor at z = 0, Z up, the chair's backrest at +y
+(so a chair faces -y), and the dataset scales every shape into the unit sphere about its
+bounding-box centre (meshio.normalise_unit_sphere). A user's file comes in any of those
+respects wrong: Y-up (glTF, most asset tools) or Z-up (ModelNet, scans), sometimes upside
+down, in metres or millimetres, far from the origin, facing any way.
+
+- `up_axis(points)` picks which of the six signed axes of the file is up (`--up auto`).
+- `turns(k)` are the k rotations about the up axis that the front search tries.
+- `normalise(points, robust=...)` centres and scales as the dataset does, or robustly for
+  partial scans; `Pose` keeps the whole input -> canonical transform as a 4x4 matrix and its
+  inverse, so that a result can be written back over the user's scan (`to_input_frame`).
+
+Rotations act on row points as `points @ R.T` (R maps the input's axes to canonical ones).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial import ConvexHull, QhullError, cKDTree
+
+from geocode.errors import UserError
+from geocode.seeds import generator
+
+AXES = ("+x", "-x", "+y", "-y", "+z", "-z")
+FEATURE_POINTS = 3000      # up_axis looks at this many points (subsampled, seeded)
+TRIM = 0.5                 # percent cut at each end of a range: outliers do not set it
+SLAB = 0.06                # the bottom or top slab: this share of the height
+HEIGHT_BINS = 8            # mass profile along a candidate up axis
+ROBUST_RADIUS = 99.0       # percentile of the radii that is 1 in the robust normalisation
+
+
+def axis_rotation(label: str) -> np.ndarray:
+    """The rotation (3x3) that turns the input's signed axis `label` ("+y", "-z", "y", ...)
+    to +z by the shortest turn; "+y" is the quarter turn about X, (x, y, z) -> (x, -z, y),
+    that `--up y` has always meant."""
+    given = label
+    label = label.strip().lower()
+    label = label if label[:1] in "+-" else "+" + label
+    table = {
+        "+z": [[1, 0, 0], [0, 1, 0], [0, 0, 1]],
+        "-z": [[1, 0, 0], [0, -1, 0], [0, 0, -1]],
+        "+y": [[1, 0, 0], [0, 0, -1], [0, 1, 0]],
+        "-y": [[1, 0, 0], [0, 0, 1], [0, -1, 0]],
+        "+x": [[0, 0, -1], [0, 1, 0], [1, 0, 0]],
+        "-x": [[0, 0, 1], [0, 1, 0], [-1, 0, 0]],
+    }
+    if label not in table:
+        raise UserError(f"--up {given}", "not an axis", "give auto, x, y, z, -x, -y or -z")
+    return np.array(table[label], dtype=np.float64)
+
+
+def axis_rotations() -> list[np.ndarray]:
+    """The 24 rotations that map coordinate axes to coordinate axes (signed permutations
+    with determinant +1)."""
+    out = []
+    for perm in ((0, 1, 2), (0, 2, 1), (1, 0, 2), (1, 2, 0), (2, 0, 1), (2, 1, 0)):
+        for signs in np.ndindex(2, 2, 2):
+            m = np.zeros((3, 3))
+            m[range(3), perm] = [1 - 2 * s for s in signs]
+            if np.linalg.det(m) > 0:
+                out.append(m)
+    return out
+
+
+def turns(k: int = 4) -> list[np.ndarray]:
+    """k rotations about Z by 360/k degrees each, the first the identity: the candidates of
+    the front search (4 for furniture drawn square to its axes; 8 or 12 for the odd scan)."""
+    if k < 1:
+        raise ValueError("turns: k must be at least 1")
+    out = []
+    for i in range(k):
+        a = 2 * np.pi * i / k
+        c, s = np.cos(a), np.sin(a)
+        out.append(np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]]))
+    return out
+
+
+# -- up axis ------------------------------------------------------------------------------------
+
+def _hull_area(flat: np.ndarray) -> float:
+    if len(flat) < 3:
+        return 0.0
+    try:
+        return float(ConvexHull(flat).volume)   # in 2D, Qhull's volume is the area
+    except QhullError:  # collinear points
+        return 0.0
+
+
+def _asymmetry(points: np.ndarray, tree: cKDTree, flip: np.ndarray, centre: np.ndarray,
+               scale: float) -> float:
+    """How unlike its image under `flip` (a diagonal of +-1: a mirror or a half turn about
+    `centre`) the cloud is: trimmed mean distance from the image's points to the nearest
+    point, over `scale` (the worst tenth, outliers and missing parts, does not count)."""
+    d, _ = tree.query((points - centre) @ flip + centre)
+    d = np.sort(d)[: int(0.9 * len(d))]
+    return float(d.mean() / scale)
+
+
+def _roundness(flat: np.ndarray, t: np.ndarray, scale: float) -> float:
+    """How far the cross-sections normal to an axis are from circles: in each of
+    HEIGHT_BINS slabs a circle is fitted by least squares (Kasa: x^2 + y^2 = A x + B y + C),
+    which holds for part of a circle too, so a one-sided scan of a vase still reads round;
+    the median distance to the circle over `scale`, averaged over the slabs."""
+    residuals = []
+    for k in range(HEIGHT_BINS):
+        xy = flat[(t >= k / HEIGHT_BINS) & (t < (k + 1) / HEIGHT_BINS)]
+        if len(xy) < 20:
+            continue
+        xy = xy - xy.mean(0)
+        design = np.column_stack([xy, np.ones(len(xy))])
+        (a, b, c), *_ = np.linalg.lstsq(design, (xy ** 2).sum(1), rcond=None)
+        radius = np.sqrt(max(c + a * a / 4 + b * b / 4, 0.0))
+        residuals.append(np.median(np.abs(np.linalg.norm(xy - [a / 2, b / 2], axis=1) - radius)))
+    return float(np.mean(residuals)) / scale if residuals else 1.0
+
+
+def _filled(flat: np.ndarray, mid: np.ndarray) -> float:
+    """Share of a slab's points in the inner half (by radius) of the slab about its centre:
+    about 1/4 for a filled disc, 0 for a ring."""
+    if len(flat) < 10:
+        return 0.0
+    r = np.linalg.norm(flat - np.median(flat, axis=0), axis=1)
+    return float((r < 0.5 * np.percentile(r, 95)).mean())
+
+
+def axis_features(points: np.ndarray) -> np.ndarray:
+    """(6, F) cues per signed axis (order AXES), each taken as if that axis were up.
+
+    Columns: 0 asymmetry across the axis, relative to the largest of the three (furniture
+    is mirror-symmetric about vertical planes, rarely about the horizontal one); 1 asymmetry
+    under a half turn about the axis, relative (tables, vases, lamps are symmetric about
+    their up axis); 2 spread of the bottom slab minus that of the top (2D convex hull area of
+    the slab's points over that of all points, seen along the axis: legs stand wide,
+    backrests and lamp canopies end narrow); 3 share of points in the bottom slab minus the
+    top (a floor contact is a few feet or a rim, a top is often a full surface); 4 height of
+    the centre of mass (0 bottom .. 1 top) minus a half; 5 extent along the axis over the
+    largest extent; 6 how far its cross-sections are from circles, relative (`_roundness`:
+    vases, lamps, round tables turn about their up axis); 7 how filled the bottom slab is
+    minus the top (`_filled`: a vase's foot is a disc, its mouth a ring); 8.. the share of points in each of HEIGHT_BINS heights, bottom first,
+    minus the uniform share (where the mass lies: a table's top, a lamp's shade).
+    """
+    pts = np.asarray(points, dtype=np.float64)
+    lo = np.percentile(pts, TRIM, axis=0)
+    hi = np.percentile(pts, 100 - TRIM, axis=0)
+    size = np.maximum(hi - lo, 1e-12)
+    scale = size.max()
+    mid = (lo + hi) / 2
+    tree = cKDTree(pts)
+    mirror = np.array([_asymmetry(pts, tree, np.diag(np.where(np.arange(3) == a, -1.0, 1.0)), mid, scale)
+                       for a in range(3)])
+    half = np.array([_asymmetry(pts, tree, np.diag(np.where(np.arange(3) == a, 1.0, -1.0)), mid, scale)
+                     for a in range(3)])
+    mirror, half = mirror / max(mirror.max(), 1e-12), half / max(half.max(), 1e-12)
+    round_ = np.array([_roundness(np.delete(pts, a, axis=1),
+                                  np.clip((pts[:, a] - lo[a]) / size[a], 0, 1), scale) for a in range(3)])
+    round_ = round_ / max(round_.max(), 1e-12)
+    rows = []
+    for a in range(3):
+        t = np.clip((pts[:, a] - lo[a]) / size[a], 0, 1)
+        flat = np.delete(pts, a, axis=1)
+        whole = max(_hull_area(flat), 1e-12)
+        low, high = t < SLAB, t > 1 - SLAB
+        spread = (_hull_area(flat[low]) - _hull_area(flat[high])) / whole
+        share = low.mean() - high.mean()
+        com = t.mean() - 0.5
+        extent = size[a] / scale
+        fill = _filled(flat[low], mid) - _filled(flat[high], mid)
+        bins = np.histogram(t, HEIGHT_BINS, (0, 1))[0] / len(t) - 1 / HEIGHT_BINS
+        rows.append([mirror[a], half[a], spread, share, com, extent, round_[a], fill, *bins])          # +axis up
+        rows.append([mirror[a], half[a], -spread, -share, -com, extent, round_[a], -fill, *bins[::-1]])  # -axis up
+    return np.array(rows)
+
+
+# Weights of the cues (columns of `axis_features`), fitted by a softmax over the six axes
+# (L2 1e-2) on program shapes: 20 random shapes a domain, each turned by 12 of the 24 axis
+# rotations, rescaled, moved, clean / underside cut and one side missing / 1% noise and 2%
+# outliers. One set per domain, because the cues point opposite ways across domains (a
+# table's mass is near its top, a hanging lamp's near its bottom); "" for any shape.
+# Refit with scripts/fit_up_weights.py when the cues or the programs change.
+WEIGHTS = {
+    "": (1.25, -1.44, 1.06, -1.29, 0.10, 0.85, -2.26, -0.97, -0.08, 0.52, 0.07, -0.14, -0.23, -0.67, -0.68, 1.20),
+    "chair": (1.37, -1.10, 2.04, 0.32, 0.09, 1.78, -1.70, -1.97, -0.02, -0.74, -0.08, 0.50, 0.74, -0.02, -0.03, -0.35),
+    "vase": (0.95, -1.47, 0.45, 0.79, -0.40, -1.48, -3.08, -0.48, 1.20, -0.31, -0.49, 0.28, -0.58, -0.28, 0.10, 0.09),
+    "table": (1.47, -1.50, -0.91, -1.36, 1.09, -0.66, -0.27, 0.26, -0.84, 0.02, 0.00, -0.27, -0.28, -0.36, -0.13, 1.86),
+    "ceiling_lamp": (1.59, -1.43, 1.50, 0.54, -1.40, -0.10, -0.03, -0.86, 1.22, 0.79, 0.41, -0.19, -0.46, -0.60, -0.84, -0.33),
+    "cabinet": (-0.33, -0.04, 0.14, -2.24, 0.98, 2.75, -1.48, 0.89, -0.79, 0.14, -0.28, -0.20, -0.07, 0.07, 0.08, 1.05),
+}
+
+
+def up_axis(points: np.ndarray, domain: str | None = None, seed: int = 0) -> tuple[np.ndarray, str]:
+    """The rotation (3x3) that brings the input's up axis to +z, and that axis ("+y").
+
+    Each signed axis is scored by `axis_features` @ `WEIGHTS[domain]` (the domain's own
+    weights where it has them, else the general ones); the best wins. Uses a seeded
+    subsample of FEATURE_POINTS points, and percentile ranges, so a million-point scan costs
+    as much as a small one and a few outliers do not move the slabs."""
+    pts = np.asarray(points, dtype=np.float64)
+    if len(pts) > FEATURE_POINTS:
+        pts = pts[generator(seed, "pose", "up").choice(len(pts), FEATURE_POINTS, replace=False)]
+    scores = axis_features(pts) @ np.asarray(WEIGHTS.get(domain or "", WEIGHTS[""]))
+    label = AXES[int(np.argmax(scores))]
+    return axis_rotation(label), label
+
+
+# -- normalisation and the full transform -------------------------------------------------------
+
+def normalise(points: np.ndarray, robust: bool = False) -> tuple[np.ndarray, np.ndarray, float]:
+    """(points in the unit sphere, centre, scale) with normalised = (points - centre) / scale.
+
+    Plain (the dataset's way): centre of the bounding box, farthest point at 1. Robust, for
+    scans with outliers and missing parts: centre of the bounding box of the 1st..99th
+    percentiles per axis, and the ROBUST_RADIUS percentile of the radii at 1 (a few stray
+    points can neither pull the centre nor shrink the shape; the shape may reach a little
+    beyond the sphere)."""
+    pts = np.asarray(points, dtype=np.float64)
+    if robust:
+        centre = (np.percentile(pts, 1, axis=0) + np.percentile(pts, 99, axis=0)) / 2
+        scale = float(np.percentile(np.linalg.norm(pts - centre, axis=1), ROBUST_RADIUS))
+    else:
+        centre = (pts.min(axis=0) + pts.max(axis=0)) / 2
+        scale = float(np.linalg.norm(pts - centre, axis=1).max())
+    if not scale > 0:
+        raise UserError("input", "all points coincide", "give a shape with some extent")
+    return (pts - centre) / scale, centre, scale
+
+
+@dataclass
+class Pose:
+    """Input frame -> canonical frame: canonical = rotation @ (x - centre) / scale, with
+    `centre` in the input's frame; `up` the input's axis that became +z, `turn` the degrees
+    turned about it after."""
+
+    rotation: np.ndarray
+    centre: np.ndarray
+    scale: float
+    up: str = "+z"
+    turn: float = 0.0
+
+    @property
+    def matrix(self) -> np.ndarray:
+        """The 4x4 homogeneous input -> canonical transform."""
+        m = np.eye(4)
+        m[:3, :3] = self.rotation / self.scale
+        m[:3, 3] = -m[:3, :3] @ self.centre
+        return m
+
+    @property
+    def inverse(self) -> np.ndarray:
+        """The 4x4 canonical -> input transform (puts a result back over the user's scan)."""
+        m = np.eye(4)
+        m[:3, :3] = self.rotation.T * self.scale
+        m[:3, 3] = self.centre
+        return m
+
+    def to_canonical(self, points: np.ndarray) -> np.ndarray:
+        return apply(self.matrix, points)
+
+    def to_input_frame(self, points: np.ndarray) -> np.ndarray:
+        return apply(self.inverse, points)
+
+    def turned(self, rotation_z: np.ndarray, degrees: float) -> Pose:
+        """The same pose followed by a turn about the canonical Z (one of `turns`)."""
+        return Pose(rotation_z @ self.rotation, self.centre, self.scale, self.up, degrees)
+
+
+def apply(matrix: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """(N, 3) points moved by a 4x4 matrix."""
+    pts = np.asarray(points, dtype=np.float64)
+    return pts @ matrix[:3, :3].T + matrix[:3, 3]
+
+
+def find_pose(points: np.ndarray, up: str = "auto", domain: str | None = None, robust: bool = False,
+              seed: int = 0, extent: np.ndarray | None = None) -> Pose:
+    """The pose that brings `points` (input frame, surface samples) Z-up into the unit
+    sphere: up axis found (`up="auto"`, with `domain`'s weights) or given ("y", "-z", ...),
+    then centred and scaled by `normalise` in the turned frame (the bounding box taken Z-up,
+    as the dataset's is). `extent`: the points that set centre and scale instead, e.g. a
+    mesh's vertices, so that a mesh is normalised exactly as meshio.normalise_unit_sphere
+    does (its samples fall a little inside its vertices' box)."""
+    pts = np.asarray(points, dtype=np.float64)
+    rotation, label = up_axis(pts, domain, seed) if up == "auto" else (axis_rotation(up), up)
+    frame = pts if extent is None else np.asarray(extent, dtype=np.float64)
+    _, centre_rot, scale = normalise(frame @ rotation.T, robust)
+    return Pose(rotation, rotation.T @ centre_rot, scale, label if label[:1] in "+-" else "+" + label)

@@ -1,0 +1,128 @@
+"""geocode.pose: axis rotations, turns, normalisation, the 4x4 transform and its inverse, and
+the up axis found on program shapes turned every way (accuracy per domain: see the numbers
+that scripts/fit_up_weights.py measure prints; the thresholds here sit below them)."""
+
+import numpy as np
+import pytest
+
+from geocode import pose
+from geocode.errors import UserError
+
+
+def test_axis_rotation_brings_each_axis_up_and_y_is_the_old_convention():
+    for label in pose.AXES:
+        r = pose.axis_rotation(label)
+        axis = np.zeros(3)
+        axis["xyz".index(label[1])] = 1.0 if label[0] == "+" else -1.0
+        assert np.allclose(r @ axis, [0, 0, 1]) and np.isclose(np.linalg.det(r), 1)
+    p = np.array([[1.0, 2.0, 3.0]])
+    assert np.allclose(p @ pose.axis_rotation("y").T, [[1, -3, 2]])   # reconstruct.z_up
+    with pytest.raises(UserError, match="--up w"):
+        pose.axis_rotation("w")
+
+
+def test_the_24_axis_rotations_are_distinct_rotations():
+    rots = pose.axis_rotations()
+    assert len(rots) == 24 and len({r.tobytes() for r in rots}) == 24
+    assert all(np.allclose(r @ r.T, np.eye(3)) and np.isclose(np.linalg.det(r), 1) for r in rots)
+
+
+def test_turns_are_about_z_and_evenly_spaced():
+    four = pose.turns(4)
+    assert np.allclose(four[0], np.eye(3))
+    assert np.allclose(four[1] @ [1, 0, 0], [0, 1, 0])
+    assert np.allclose(np.linalg.matrix_power(pose.turns(12)[1], 12), np.eye(3))
+    assert all(np.allclose(t @ [0, 0, 1], [0, 0, 1]) for t in pose.turns(8))
+
+
+def test_normalise_plain_is_the_datasets_and_robust_ignores_outliers():
+    rng = np.random.default_rng(0)
+    box = rng.uniform(-1, 1, (5000, 3)) * [2, 1, 0.5] + [10, 20, 30]
+    unit, centre, scale = pose.normalise(box)
+    assert np.isclose(np.linalg.norm(unit, axis=1).max(), 1)
+    assert np.allclose((unit.min(0) + unit.max(0)) / 2, 0)
+    stray = np.concatenate([box, [[100.0, 20, 30]] * 10])
+    _, c_plain, s_plain = pose.normalise(stray)
+    _, c_robust, s_robust = pose.normalise(stray, robust=True)
+    assert np.linalg.norm(c_robust - [10, 20, 30]) < 0.05 and s_robust < 1.1 * scale
+    assert s_plain > 10 * scale and c_plain[0] > 50
+    with pytest.raises(UserError, match="coincide"):
+        pose.normalise(np.ones((200, 3)))
+
+
+def test_pose_matrix_and_its_inverse_put_a_result_back_over_the_scan():
+    rng = np.random.default_rng(1)
+    scan = rng.normal(size=(1000, 3)) * [1, 3, 2] * 250 + [1000, -40, 7]   # millimetres, Y up
+    p = pose.find_pose(scan, up="y")
+    canonical = p.to_canonical(scan)
+    assert np.isclose(np.linalg.norm(canonical - (canonical.min(0) + canonical.max(0)) / 2, axis=1).max(), 1)
+    assert np.ptp(canonical[:, 2]) == pytest.approx(np.ptp(scan[:, 1]) / p.scale)   # input y is up
+    assert np.allclose(p.inverse @ p.matrix, np.eye(4))
+    assert np.allclose(p.to_input_frame(canonical), scan)
+    turned = p.turned(pose.turns(4)[1], 90.0)
+    assert turned.turn == 90.0
+    assert np.allclose(turned.to_input_frame(turned.to_canonical(scan)), scan)
+    assert np.allclose(turned.to_canonical(scan), canonical @ pose.turns(4)[1].T)
+
+
+def test_up_axis_is_deterministic_and_cheap_on_a_large_cloud():
+    rng = np.random.default_rng(2)
+    cloud = rng.normal(size=(200_000, 3))
+    assert pose.up_axis(cloud)[1] == pose.up_axis(cloud)[1]
+
+
+def program_clouds(domain, n_shapes, seed):
+    from geocode.points import sample_surface
+    from geocode.program import Program
+
+    program = Program.load(domain)
+    for i in range(n_shapes):
+        rng = np.random.default_rng(seed + i)
+        yield rng, sample_surface(program.evaluate(program.random_values(rng)), 3000, rng).astype(np.float64)
+
+
+def scanned(points, rng):
+    """Underside cut, a quarter of one side missing, 1% noise, 2% outliers."""
+    p = points[points[:, 2] > points[:, 2].min() + 0.08 * np.ptp(points[:, 2])]
+    d = rng.normal(size=2)
+    s = p[:, :2] @ (d / np.linalg.norm(d))
+    p = p[s < np.quantile(s, 0.75)]
+    ext = np.ptp(p, 0).max()
+    p = p + rng.normal(0, 0.01 * ext, p.shape)
+    lo, hi = p.min(0), p.max(0)
+    return np.concatenate([p, rng.uniform(lo - 0.1 * ext, hi + 0.1 * ext, (int(0.02 * len(p)), 3))])
+
+
+# Shapes the weights were never fitted on (they were fitted on seeds 1000..1019); the bars sit
+# under what scripts/fit_up_weights.py measure gives on 20 shapes x 6 ups x 4 perturbations.
+BARS = {"chair": 0.8, "table": 0.8, "ceiling_lamp": 0.7, "vase": 0.4, "cabinet": 0.4}
+
+
+@pytest.mark.blender
+@pytest.mark.parametrize("domain", sorted(BARS))
+def test_up_axis_on_program_shapes_turned_every_way(domain):
+    pytest.importorskip("bpy")
+    ups = [pose.axis_rotation(a).T for a in pose.AXES]   # +z -> each axis
+    hits = []
+    for i, (rng, base) in enumerate(program_clouds(domain, 4, seed=7000)):
+        for k, to_input in enumerate(ups):
+            r = to_input @ pose.turns(4)[(i + k) % 4]
+            points = scanned(base, rng) if k % 2 else base
+            points = points @ r.T * rng.uniform(0.01, 100) + rng.normal(0, 10, 3)
+            rotation, label = pose.up_axis(points, domain)
+            hits.append(label == pose.AXES[k])
+            if label == pose.AXES[k]:   # the rotation found brings the shape upright
+                assert np.allclose(rotation @ r @ [0, 0, 1], [0, 0, 1])
+    assert np.mean(hits) >= BARS[domain], hits
+
+
+def test_a_mesh_is_normalised_by_its_vertices_as_the_dataset_is():
+    import trimesh
+
+    from geocode.inputs import Geometry, surface_points
+    from geocode.meshio import normalise_unit_sphere
+
+    mesh = trimesh.creation.box((0.4, 0.6, 1.0)).apply_translation((3, 4, 5))
+    samples = surface_points(Geometry(None, None, mesh, "mesh"), 2000, np.random.default_rng(0))
+    p = pose.find_pose(samples, up="z", extent=mesh.vertices)
+    assert np.allclose(p.to_canonical(mesh.vertices), normalise_unit_sphere(mesh).vertices)
