@@ -27,7 +27,9 @@ import math
 from geocode.nodes import (
     Graph,
     Repeat,
+    bezier_segment_style,
     handle,
+    leg_mesh,
     loft,
     mirror,
     quadratic_cartesian,
@@ -35,10 +37,9 @@ from geocode.nodes import (
     rectangle_fillet,
     sample_curve,
     sample_curve_array,
+    seat,
     solidify,
 )
-from geocode.nodes.parts import leg_mesh, seat
-from geocode.nodes.styles import bezier_segment_style
 
 BODY, TOP, DRAWERS, DOORS, HANDLES, PLINTH, LEGS = range(1, 8)
 
@@ -128,7 +129,7 @@ class _Cabinet:
 def _body(c: _Cabinet):
     g, p = c.g, c.p
     outline = loft(g, curve_a=c.left, curve_b=c.right, rows=SIDE_RESOLUTION)["Mesh"]
-    return g.label_part(solidify(g, mesh=outline, thickness=p["depth"])["Mesh"], BODY)
+    return g.label(solidify(g, mesh=outline, thickness=p["depth"])["Mesh"], BODY)
 
 
 # -- fronts -------------------------------------------------------------------------------------
@@ -230,7 +231,7 @@ def _bar(c: _Cabinet, length):
     profile = rectangle_fillet(g, width=2.0, height=2.0, roundness=p["handle_roundness"],
                                resolution=2)["Curve"]
     return rail(g, curve=curve, profile_curve=profile, radius=p["handle_thickness"],
-                fill_caps=True, part=HANDLES)["Mesh"]
+                fill_caps=True, label=HANDLES)["Mesh"]
 
 
 def _knob(c: _Cabinet):
@@ -241,7 +242,7 @@ def _knob(c: _Cabinet):
     size = p["knob_size"]
     return bezier_segment_style(g, curve=stem, profile_curve=profile, start=0.4 * size,
                                 start_handle=0.4 * size, end_handle=1.3 * size,
-                                end=0.6 * size, fill_caps=True, part=HANDLES)["Mesh"]
+                                end=0.6 * size, fill_caps=True, label=HANDLES)["Mesh"]
 
 
 def _fronts(c: _Cabinet):
@@ -259,7 +260,7 @@ def _fronts(c: _Cabinet):
     total = g.max(p["drawer_rows"] + p["door_rows"] * choices["door_height"], 1.0)
     zone = Repeat(g, rows, geometry=None, start=c.along(p["frame_width"]))
     row = _Row(c, zone, rows, total, choices)
-    built = g.join([zone["geometry"], g.label_part(row.fronts(), row.label),
+    built = g.join([zone["geometry"], g.label(row.fronts(), row.label),
                     row.handles()])
     return zone.close(geometry=built, start=row.end)["geometry"]
 
@@ -272,7 +273,7 @@ def _top_board(c: _Cabinet):
     board = seat(g, width=p["width"] * p["top_width"] + 2.0 * overhang,
                  depth=p["depth"] + overhang, roundness=0.0,
                  top=c.top + p["top_thickness"] - SINK, thickness=p["top_thickness"],
-                 bevel=p["top_bevel"], part=TOP)["Mesh"]
+                 bevel=p["top_bevel"], label=TOP)["Mesh"]
     moved = g.transform(board, translation=g.vec(0, -0.5 * overhang, 0))
     return g.switch(p["top_board"], None, moved)
 
@@ -281,7 +282,7 @@ def _plinth(c: _Cabinet):
     g, p = c.g, c.p
     inset = 2.0 * p["plinth_inset"]
     return seat(g, width=p["width"] - inset, depth=p["depth"] - inset, roundness=0.0,
-                top=c.bottom + SINK, thickness=c.bottom + SINK, bevel=0.0, part=PLINTH)["Mesh"]
+                top=c.bottom + SINK, thickness=c.bottom + SINK, bevel=0.0, label=PLINTH)["Mesh"]
 
 
 def _legs(c: _Cabinet):
@@ -292,7 +293,7 @@ def _legs(c: _Cabinet):
     one = leg_mesh(g, top=g.vec(x, y, c.bottom + SINK), bottom=g.vec(x + splay, y + splay, 0.0),
                    curvature=1.0, top_radius=p["leg_thickness"],
                    bottom_radius=p["leg_thickness"] * p["leg_taper"],
-                   roundness=p["leg_roundness"], part=LEGS)["Mesh"]
+                   roundness=p["leg_roundness"], label=LEGS)["Mesh"]
     pair = mirror(g, geometry=one, axis=0)["Geometry"]
     return mirror(g, geometry=pair, axis=1)["Geometry"]
 
@@ -300,17 +301,17 @@ def _legs(c: _Cabinet):
 def build(g: Graph) -> None:
     with g.frame("Parameters"):
         p = _parameters(g)
-    with g.part("Sides"):
+    with g.group("Sides"):
         c = _Cabinet(g, p)
-    with g.part("Body"):
+    with g.group("Body"):
         body = _body(c)
-    with g.part("Fronts"):
+    with g.group("Fronts"):
         fronts = _fronts(c)
-    with g.part("Top Board"):
+    with g.group("Top Board"):
         top = _top_board(c)
-    with g.part("Plinth"):
+    with g.group("Plinth"):
         plinth = _plinth(c)
-    with g.part("Legs"):
+    with g.group("Legs"):
         legs = _legs(c)
     with g.frame("Assembly"):
         base = g.index_switch(p["base_style"], [None, plinth, legs])

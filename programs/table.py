@@ -24,9 +24,18 @@ from __future__ import annotations
 
 import math
 
-from geocode.nodes import Graph, mirror, radial, rectangle_fillet, sample_curve
-from geocode.nodes.parts import leg_mesh, quadratic_cartesian_mesh, seat, straight_frame
-from geocode.nodes.styles import bezier_segment_style
+from geocode.nodes import (
+    Graph,
+    bezier_segment_style,
+    leg_mesh,
+    mirror,
+    quadratic_cartesian_mesh,
+    radial,
+    rectangle_fillet,
+    sample_curve,
+    seat,
+    straight_frame,
+)
 
 # part labels (segmentation)
 TOP, LEGS, APRONS, STRETCHERS, SHELF, COLUMN, FEET, BASE_PLATE = range(1, 9)
@@ -92,7 +101,7 @@ class _Table:
         self.g, self.p = g, p
         top = seat(g, width=p["top_width"], depth=p["top_depth"], roundness=p["top_roundness"],
                    top=p["top_height"], thickness=p["top_thickness"], bevel=p["top_bevel"],
-                   part=TOP)
+                   label=TOP)
         self.mesh, self.corner = top["Mesh"], top["Corner"]
         # attachments start inside the slab: halfway down from its top
         self.inside = g.named("inside", p["top_height"] - p["top_thickness"] * SINK)
@@ -118,7 +127,7 @@ class _Legs:
                        bottom=g.vec(self.x + splay, self.y + splay, 0.0),
                        curvature=p["leg_curvature"], top_radius=p["leg_thickness"],
                        bottom_radius=p["leg_thickness"] * p["leg_taper"],
-                       roundness=p["leg_bevel"], part=LEGS)
+                       roundness=p["leg_bevel"], label=LEGS)
         self.axis = g.named("leg axis", one["Curve"])
         self.mesh = mirror(g, geometry=mirror(g, geometry=one["Mesh"], axis=0)["Geometry"],
                            axis=1)["Geometry"]
@@ -130,7 +139,7 @@ class _Legs:
 
 def _bar(g: Graph, start, end, width, depth, roundness, part):
     return straight_frame(g, start=start, end=end, width=width, depth=depth,
-                          roundness=roundness, axis=UP, part=part)["Mesh"]
+                          roundness=roundness, axis=UP, label=part)["Mesh"]
 
 
 def _aprons(legs: _Legs):
@@ -178,7 +187,7 @@ def _shelf(legs: _Legs):
     point = legs.at(p["shelf_height"])
     slab = seat(g, width=point.x * 2.0, depth=point.y * 2.0, roundness=0.0,
                 top=point.z + p["shelf_thickness"] * 0.5, thickness=p["shelf_thickness"],
-                bevel=0.0, part=SHELF)["Mesh"]
+                bevel=0.0, label=SHELF)["Mesh"]
     return g.switch(p["shelf"], None, slab)
 
 
@@ -195,7 +204,7 @@ def _column(t: _Table):
         g, curve=g.line(g.vec(0.0, 0.0, t.inside), g.vec(0.0, 0.0, end), count=12),
         profile_curve=profile, start=p["column_top_radius"],
         start_handle=p["column_top_handle"], end_handle=p["column_bottom_handle"],
-        end=p["column_bottom_radius"], fill_caps=True, part=COLUMN)["Mesh"]
+        end=p["column_bottom_radius"], fill_caps=True, label=COLUMN)["Mesh"]
 
 
 def _feet(t: _Table):
@@ -207,7 +216,7 @@ def _feet(t: _Table):
     one = quadratic_cartesian_mesh(g, start=hub, end=toe,
                                    offset=(toe + hub) * (p["foot_curvature"] * 0.5),
                                    radius=p["foot_thickness"], roundness=1.0,
-                                   axis=(0.0, 1.0, 0.0), part=FEET)["Mesh"]
+                                   axis=(0.0, 1.0, 0.0), label=FEET)["Mesh"]
     return radial(g, geometry=one, count=p["foot_count"], radius=0.0,
                   start_angle=math.pi / 2)["Geometry"]
 
@@ -217,7 +226,7 @@ def _base_plate(t: _Table):
     g, p = t.g, t.p
     return seat(g, width=t.reach * 2.0, depth=t.reach * 2.0, roundness=1.0,
                 top=p["base_thickness"], thickness=p["base_thickness"], bevel=BASE_BEVEL,
-                part=BASE_PLATE)["Mesh"]
+                label=BASE_PLATE)["Mesh"]
 
 
 # -- assembly ----------------------------------------------------------------------------------
@@ -225,21 +234,21 @@ def _base_plate(t: _Table):
 def build(g: Graph) -> None:
     with g.frame("Parameters"):
         p = _parameters(g)
-    with g.part("Top"):
+    with g.group("Top"):
         t = _Table(g, p)
-    with g.part("Legs"):
+    with g.group("Legs"):
         legs = _Legs(t)
-    with g.part("Aprons"):
+    with g.group("Aprons"):
         aprons = _aprons(legs)
-    with g.part("Stretchers"):
+    with g.group("Stretchers"):
         stretchers = _stretchers(legs)
-    with g.part("Shelf"):
+    with g.group("Shelf"):
         shelf = _shelf(legs)
-    with g.part("Column"):
+    with g.group("Column"):
         column = _column(t)
-    with g.part("Feet"):
+    with g.group("Feet"):
         feet = _feet(t)
-    with g.part("Base Plate"):
+    with g.group("Base Plate"):
         plate = _base_plate(t)
     with g.frame("Assembly"):
         four_legs = g.join([legs.mesh, aprons, stretchers, shelf])

@@ -103,7 +103,7 @@ def test_node_group_is_cached_and_rebuilt_after_reset(blender):
 def test_part_labels_land_on_faces(blender):
     g = Graph.new("labelled")
     cube = g.node("GeometryNodeMeshCube", {"Size": (1, 1, 1)})
-    g.output("Geometry", "geometry", g.label_part(cube, 7))
+    g.output("Geometry", "geometry", g.label(cube, 7))
     mesh = Evaluator(g.tree).mesh()
     assert len(mesh.faces) == 12
     assert (mesh.metadata["part"] == 7).all()
@@ -224,17 +224,17 @@ def test_geometry_helpers_ground_and_bound(blender):
     assert vertices[:, 2].max() == pytest.approx(1.0)
 
 
-# -- parts and frames -----------------------------------------------------------------------------
+# -- groups and frames ----------------------------------------------------------------------------
 
-def test_parts_capture_inputs_and_outputs_and_compute_the_same(blender):
+def test_groups_capture_inputs_and_outputs_and_compute_the_same(blender):
     def build(g):
         x = g.input("x", "float", default=3.0)
-        with g.part("Double"):
+        with g.group("Double"):
             doubled = g.named("doubled", 2 * x)
-            with g.part("Inner"):
-                inner = doubled + x       # x enters through both parts
-        with g.part("Sibling"):
-            sibling = inner * 10          # from one part's inner part into a sibling
+            with g.group("Inner"):
+                inner = doubled + x       # x enters through both groups
+        with g.group("Sibling"):
+            sibling = inner * 10          # from one group's inner group into a sibling
         with g.frame("Assembly"):
             return g.vec(doubled, sibling, x - 1)
 
