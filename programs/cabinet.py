@@ -141,9 +141,8 @@ class _Row:
         g, p = c.g, c.p
         self.c, self.g, self.p = c, g, p
         self.is_door = zone.iteration < p["door_rows"]
-        self.columns = g.switch(self.is_door, choices["drawer_columns"],
-                                choices["door_columns"])
-        weight = g.switch(self.is_door, 1.0, choices["door_height"])
+        self.columns = g.when(self.is_door, choices["door_columns"], choices["drawer_columns"])
+        weight = g.when(self.is_door, choices["door_height"], 1.0)
         usable = 1.0 - 2.0 * c.along(p["frame_width"])
         self.start = zone["start"]
         self.end = self.start + usable * weight / total_weight
@@ -152,8 +151,8 @@ class _Row:
         # counted from the top, the open drawer slides out by the travel
         from_top = rows - zone.iteration
         is_open = g.compare("EQUAL", from_top, p["open_drawer"]) & ~self.is_door
-        self.travel = g.switch(is_open, 0.0, choices["travel"])
-        self.label = g.switch(self.is_door, DRAWERS, DOORS)
+        self.travel = g.when(is_open, choices["travel"], 0.0)
+        self.label = g.when(self.is_door, DOORS, DRAWERS)
 
     def _loft(self, low, high, span_start, span_end):
         return loft(self.g, curve_a=self.c.inner_left, curve_b=self.c.inner_right, start=low,
@@ -178,7 +177,7 @@ class _Row:
                              span_start + margin, span_end - margin)
         back = g.transform(surface, translation=g.vec(0, -self.travel, 0))
         box = solidify(g, mesh=back, thickness=self.travel + SINK)["Mesh"]
-        return g.switch(self.travel > 0.0, None, box)
+        return g.when(self.travel > 0.0, box)
 
     def fronts(self):
         """The row's fronts, one pass of a nested repeat zone per column."""
@@ -193,7 +192,7 @@ class _Row:
         """A handle on each front: SampleCurveArray on the row's line across its fronts, at
         the handle's height on the fronts' face, gives the fronts' centres."""
         g, p, c = self.g, self.p, self.c
-        height = g.lerp(self.low, self.high, g.switch(self.is_door, p["handle_height"], 0.5))
+        height = g.lerp(self.low, self.high, g.when(self.is_door, 0.5, p["handle_height"]))
         edge = sample_curve(g, curve=c.inner_right, factor=height)["Position"]
         face = c.front - self.travel - p["front_thickness"]
         line = g.line(g.vec(-edge.x, face, edge.z), g.vec(edge.x, face, edge.z))
@@ -204,8 +203,8 @@ class _Row:
         front_height = (self.high - self.low) * c.side_length
         # doors: the handle moves towards the cabinet's middle, beside the door's inner edge
         inward = g.math("SIGN", g.position().x) * front_width * (-0.5 * DOOR_HANDLE_SHIFT)
-        placed = g.set_position(centres, offset=g.vec(g.switch(self.is_door, 0.0, inward), 0, 0))
-        length = p["handle_length"] * g.switch(self.is_door, front_width, front_height)
+        placed = g.set_position(centres, offset=g.vec(g.when(self.is_door, inward, 0.0), 0, 0))
+        length = p["handle_length"] * g.when(self.is_door, front_height, front_width)
 
         def on_fronts(handle):
             # handle +x (out of the front) -> world -y; its z (along a bar) -> world x, or z
@@ -213,7 +212,7 @@ class _Row:
             lying = g.transform(g.transform(handle, rotation=(0.0, math.pi / 2, 0.0)),
                                 rotation=(-math.pi / 2, 0.0, 0.0))
             upright = g.transform(handle, rotation=(0.0, 0.0, -math.pi / 2))
-            return g.instance_on_points(placed, g.switch(self.is_door, lying, upright))
+            return g.instance_on_points(placed, g.when(self.is_door, upright, lying))
 
         return g.index_switch(p["handle_style"], [None, on_fronts(_bar(c, length)),
                                                   on_fronts(_knob(c))])
@@ -250,12 +249,12 @@ def _fronts(c: _Cabinet):
     the sides starts where the previous one ended."""
     g, p = c.g, c.p
     has_drawers, has_doors = p["drawer_rows"] > 0, p["door_rows"] > 0
-    travel = g.switch(p["open_drawer"] > 0, 0.0, p["drawer_open"] * p["depth"])
+    travel = g.when(p["open_drawer"] > 0, p["drawer_open"] * p["depth"], 0.0)
     # parameters of absent rows reach no geometry: their rules are inferred from these
-    choices = {"travel": g.switch(has_drawers, 0.0, travel),
-               "drawer_columns": g.switch(has_drawers, 1, p["drawer_columns"]),
-               "door_columns": g.switch(has_doors, 1, p["door_columns"]),
-               "door_height": g.switch(has_doors, 1.0, p["door_height"])}
+    choices = {"travel": g.when(has_drawers, travel, 0.0),
+               "drawer_columns": g.when(has_drawers, p["drawer_columns"], 1),
+               "door_columns": g.when(has_doors, p["door_columns"], 1),
+               "door_height": g.when(has_doors, p["door_height"], 1.0)}
     rows = p["drawer_rows"] + p["door_rows"]
     total = g.max(p["drawer_rows"] + p["door_rows"] * choices["door_height"], 1.0)
     zone = Repeat(g, rows, geometry=None, start=c.along(p["frame_width"]))
@@ -275,7 +274,7 @@ def _top_board(c: _Cabinet):
                  top=c.top + p["top_thickness"] - SINK, thickness=p["top_thickness"],
                  bevel=p["top_bevel"], label=TOP)["Mesh"]
     moved = g.transform(board, translation=g.vec(0, -0.5 * overhang, 0))
-    return g.switch(p["top_board"], None, moved)
+    return g.when(p["top_board"], moved)
 
 
 def _plinth(c: _Cabinet):

@@ -193,7 +193,7 @@ def _cushion(c: _Chair):
                           bottom=p["seat_height"] - p["seat_thickness"] * 0.2,
                           thickness=p["cushion_thickness"], fill=p["cushion_fill"],
                           label=CUSHION)
-    return g.switch(p["cushion"], None, pillow["Mesh"])
+    return g.when(p["cushion"], pillow["Mesh"])
 
 
 # -- legs -------------------------------------------------------------------------------------
@@ -213,7 +213,7 @@ def _four_legs(c: _Chair):
                      top_radius=p["leg_thickness"],
                      bottom_radius=p["leg_thickness"] * p["leg_taper"],
                      roundness=p["leg_bevel"], label=LEGS)["Mesh"] for k in ("front", "back")]
-    return g.switch(p["monoleg"], g.join(legs), None)
+    return g.when(p["monoleg"], None, g.join(legs))
 
 
 def _monoleg(c: _Chair):
@@ -221,7 +221,7 @@ def _monoleg(c: _Chair):
     with tent legs its foot is lifted by `TENT_HUB` and the legs, joined into it, carry the
     chair."""
     g, p = c.g, c.p
-    foot = g.switch(p["tent_legs"], 0.0, TENT_HUB)
+    foot = g.when(p["tent_legs"], TENT_HUB, 0.0)
     path = g.line(g.vec(0.0, 0.0, c.inside), g.vec(0.0, 0.0, foot), count=12)
     profile = rectangle_fillet(g, width=2.0, height=2.0, roundness=1.0,
                                resolution=3)["Curve"]
@@ -229,8 +229,8 @@ def _monoleg(c: _Chair):
         g, curve=path, profile_curve=profile, start=p["monoleg_top_radius"],
         start_handle=p["monoleg_top_handle"], end_handle=p["monoleg_bottom_handle"],
         end=p["monoleg_bottom_radius"], fill_caps=True, label=MONOLEG)["Mesh"]
-    monoleg = g.join([column, g.switch(p["tent_legs"], None, _tent_legs(c, foot))])
-    return g.switch(p["monoleg"], None, monoleg)
+    monoleg = g.join([column, g.when(p["tent_legs"], _tent_legs(c, foot))])
+    return g.when(p["monoleg"], monoleg)
 
 
 def _tent_legs(c: _Chair, foot):
@@ -287,17 +287,17 @@ def _top_rail(c: _Chair):
                     size=p["top_rail_size"], depth=p["top_rail_depth"],
                     roundness=p["top_rail_roundness"], fill=p["top_rail_fill"],
                     label=TOP_RAIL)["Mesh"]
-    return g.switch(p["top_rail"], None, mesh)
+    return g.when(p["top_rail"], mesh)
 
 
 def _backrest(c: _Chair):
     """Between the frames: a solid panel (`backrest_solid`), else cross or vertical rails
     with the optional top rail."""
     g, p = c.g, c.p
-    rails = g.switch(p["vertical_rails"], _cross_rails(c), _vertical_rails(c))
+    rails = g.when(p["vertical_rails"], _vertical_rails(c), _cross_rails(c))
     open_back = g.join([rails, _top_rail(c)])
     panel = c.frame_sweep(c.frame_x * 2.0, p["solid_thickness"], 0.0, BACK_PANEL)
-    return g.switch(p["backrest_solid"], open_back, panel)
+    return g.when(p["backrest_solid"], panel, open_back)
 
 
 # -- armrests -------------------------------------------------------------------------------
@@ -337,8 +337,8 @@ def _straight_arm(c: _Chair, arm: _Arm):
                          width=p["armrest_width"] * 1.2,
                          depth=p["armrest_pad_thickness"], roundness=1.0,
                          label=ARM_PADS)["Mesh"]
-    return g.join([bar, g.switch(p["armrest_support"], None, support),
-                   g.switch(p["armrest_cushion"], None, pad)])
+    return g.join([bar, g.when(p["armrest_support"], support),
+                   g.when(p["armrest_cushion"], pad)])
 
 
 def _loop_arm(c: _Chair, arm: _Arm):

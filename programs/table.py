@@ -159,7 +159,7 @@ def _aprons(legs: _Legs):
                0.0, APRONS)
     aprons = g.join([mirror(g, geometry=side, axis=0)["Geometry"],
                      mirror(g, geometry=end, axis=1)["Geometry"]])
-    return g.switch(p["aprons"], None, aprons)
+    return g.when(p["aprons"], aprons)
 
 
 def _stretchers(legs: _Legs):
@@ -188,7 +188,7 @@ def _shelf(legs: _Legs):
     slab = seat(g, width=point.x * 2.0, depth=point.y * 2.0, roundness=0.0,
                 top=point.z + p["shelf_thickness"] * 0.5, thickness=p["shelf_thickness"],
                 bevel=0.0, label=SHELF)["Mesh"]
-    return g.switch(p["shelf"], None, slab)
+    return g.when(p["shelf"], slab)
 
 
 # -- pedestal ----------------------------------------------------------------------------------
@@ -197,7 +197,7 @@ def _column(t: _Table):
     """A column from inside the top down to its end: above the floor on feet, or inside the
     base plate; its silhouette is a Bezier profile."""
     g, p = t.g, t.p
-    end = g.switch(p["base_plate"], p["foot_rise"], p["base_thickness"] * SINK)
+    end = g.when(p["base_plate"], p["base_thickness"] * SINK, p["foot_rise"])
     profile = rectangle_fillet(g, width=2.0, height=2.0, roundness=p["column_roundness"],
                                resolution=3)["Curve"]
     return bezier_segment_style(
@@ -252,7 +252,7 @@ def build(g: Graph) -> None:
         plate = _base_plate(t)
     with g.frame("Assembly"):
         four_legs = g.join([legs.mesh, aprons, stretchers, shelf])
-        pedestal = g.join([column, g.switch(p["base_plate"], feet, plate)])
-        table = g.join([t.mesh, g.switch(p["pedestal"], four_legs, pedestal)])
+        pedestal = g.join([column, g.when(p["base_plate"], plate, feet)])
+        table = g.join([t.mesh, g.when(p["pedestal"], pedestal, four_legs)])
         # whatever the parts, the lowest point rests on z = 0
         g.output("Geometry", "geometry", g.ground(table))

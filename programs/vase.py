@@ -199,7 +199,7 @@ def _handles(body: _Body):
     one = rail(g, curve=curve, profile_curve=_tube_profile(g, p["handle_roundness"]),
                radius=p["handle_thickness"], fill_caps=True, label=HANDLE)["Mesh"]
     copies = radial(g, geometry=one, count=p["handle_count"], radius=0.0)["Geometry"]
-    return g.switch(p["handle_count"] > 0, None, copies)
+    return g.when(p["handle_count"] > 0, copies)
 
 
 def _ring(body: _Body, shown, factor, size, part):
@@ -208,7 +208,7 @@ def _ring(body: _Body, shown, factor, size, part):
     g = body.g
     ring = rail(g, curve=body.loop_at(factor), profile_curve=_tube_profile(g), radius=size,
                 fill_caps=False, label=part)["Mesh"]
-    return g.switch(shown, None, ring)
+    return g.when(shown, ring)
 
 
 def _lid(body: _Body):
@@ -229,8 +229,8 @@ def _lid(body: _Body):
     knob = middle_expand_contract(
         g, curve=knob_path, profile_curve=_tube_profile(g, p["knob_roundness"]),
         radius=p["knob_size"], amount=0.6, fill_caps=True, label=KNOB)["Mesh"]
-    with_knob = g.join([lid, g.switch(p["knob"], None, knob)])
-    return g.switch(p["lid"], None, with_knob)
+    with_knob = g.join([lid, g.when(p["knob"], knob)])
+    return g.when(p["lid"], with_knob)
 
 
 def _pedestal(body: _Body):

@@ -60,7 +60,7 @@ def _footrest(g: Graph, p: dict, inside):
     tube = rectangle_fillet(g, width=2.0, height=2.0, roundness=1.0, resolution=2)["Curve"]
     mesh = rail(g, curve=ring, profile_curve=tube, radius=p["leg_thickness"], fill_caps=False,
                 label=FOOTREST)["Mesh"]
-    return g.switch(p["footrest"], None, mesh)
+    return g.when(p["footrest"], mesh)
 
 
 def build(g: Graph) -> None:
