@@ -26,7 +26,6 @@ SOCKET_TYPES = {
     "float": "NodeSocketFloat",
     "vector": "NodeSocketVector",
     "geometry": "NodeSocketGeometry",
-    "rotation": "NodeSocketRotation",
 }
 
 # socket.type -> the data-type enum that Switch/Index Switch/Compare nodes use
@@ -163,12 +162,12 @@ def as_socket(value: Value) -> bpy.types.NodeSocket | None:
     return None
 
 
-def data_type_of(*values: Value, default: str = "FLOAT") -> str:
+def data_type_of(*values: Value) -> str:
     """The Switch/Compare data type that fits the given operands (first linked one wins)."""
     for value in values:
         socket = as_socket(value)
         if socket is not None:
-            return _DATA_TYPES.get(socket.type, default)
+            return _DATA_TYPES.get(socket.type, "FLOAT")
     for value in values:
         if isinstance(value, bool):
             return "BOOLEAN"
@@ -176,7 +175,7 @@ def data_type_of(*values: Value, default: str = "FLOAT") -> str:
             return "VECTOR"
         if isinstance(value, int):
             return "INT"
-    return default
+    return "FLOAT"
 
 
 def is_vector(value: Value) -> bool:
