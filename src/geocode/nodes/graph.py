@@ -380,7 +380,7 @@ class Graph:
 
     # -- group interface ----------------------------------------------------------------------
 
-    def input(self, name: str, kind: str, default: Value = None, min: float | None = None,
+    def input(self, name: str, kind: str, *, default: Value = None, min: float | None = None,
               max: float | None = None, description: str = "") -> Socket:
         """Expose a group input and return its socket. kind: bool|int|float|vector|geometry."""
         item = self.tree.interface.new_socket(name, in_out="INPUT",
@@ -457,7 +457,7 @@ class Graph:
         return self.map_range(t, 0.0, 1.0, a, b, clamp=False)
 
     def map_range(self, value: Value, from_min: Value, from_max: Value, to_min: Value,
-                  to_max: Value, interpolation: str = "LINEAR",
+                  to_max: Value, *, interpolation: str = "LINEAR",
                   clamp: bool = True) -> Socket:
         return self.node("ShaderNodeMapRange", {
             "Value": value, "From Min": from_min, "From Max": from_max,
@@ -501,7 +501,7 @@ class Graph:
 
     # -- logic ----------------------------------------------------------------------------------
 
-    def compare(self, operation: str, a: Value, b: Value,
+    def compare(self, operation: str, a: Value, b: Value, *,
                 data_type: str | None = None) -> Socket:
         """operation: LESS_THAN, LESS_EQUAL, GREATER_THAN, GREATER_EQUAL, EQUAL, NOT_EQUAL."""
         if data_type is None and (is_vector(a) or is_vector(b)):
@@ -518,7 +518,7 @@ class Graph:
         the Switch node of `switch`, its values in the order of an if."""
         return self.switch(condition, otherwise, then)
 
-    def switch(self, condition: Value, if_false: Value, if_true: Value,
+    def switch(self, condition: Value, if_false: Value, if_true: Value, *,
                data_type: str | None = None) -> Socket:
         """The Switch node, its values in the node's order (False, then True)."""
         data_type = data_type or data_type_of(if_false, if_true)
@@ -526,7 +526,7 @@ class Graph:
             "Switch": condition, "False": if_false, "True": if_true,
         }, input_type=data_type)["Output"]
 
-    def index_switch(self, index: Value, items: Sequence[Value],
+    def index_switch(self, index: Value, items: Sequence[Value], *,
                      data_type: str | None = None) -> Socket:
         """Output items[index]; an index out of range gives the type's zero value."""
         node = self.node("GeometryNodeIndexSwitch", data_type=data_type or data_type_of(*items))
@@ -558,7 +558,7 @@ class Graph:
 
     # -- curves -----------------------------------------------------------------------------
 
-    def line(self, start: Value, end: Value, count: Value = None) -> Socket:
+    def line(self, start: Value, end: Value, *, count: Value = None) -> Socket:
         """A straight curve from `start` to `end`; with `count`, resampled to that many
         evenly spaced points (else its two end points)."""
         line = self.node("GeometryNodeCurvePrimitiveLine", {"Start": start, "End": end}).out
@@ -582,7 +582,7 @@ class Graph:
             self.link(geometry, node.input("Geometry"))
         return node.out
 
-    def transform(self, geometry: Value, translation: Value = None, rotation: Value = None,
+    def transform(self, geometry: Value, *, translation: Value = None, rotation: Value = None,
                   scale: Value = None) -> Socket:
         """Transform Geometry; rotation is an Euler vector (radians) or a rotation socket."""
         if rotation is not None and not _is_rotation(rotation):
@@ -595,7 +595,7 @@ class Graph:
     def euler_to_rotation(self, euler: Value) -> Socket:
         return self.node("FunctionNodeEulerToRotation", {"Euler": euler}).out
 
-    def set_position(self, geometry: Value, position: Value = None,
+    def set_position(self, geometry: Value, *, position: Value = None,
                      offset: Value = None) -> Socket:
         return self.node("GeometryNodeSetPosition", {
             "Geometry": geometry, "Position": position, "Offset": offset}).out
@@ -610,7 +610,7 @@ class Graph:
         """Bounding Box: outputs `Bounding Box` (a mesh), `Min` and `Max` (vectors)."""
         return self.node("GeometryNodeBoundBox", {"Geometry": geometry})
 
-    def instance_on_points(self, points: Value, instance: Value, rotation: Value = None,
+    def instance_on_points(self, points: Value, instance: Value, *, rotation: Value = None,
                            scale: Value = None) -> Socket:
         """A copy of `instance` on every point, turned by `rotation` and sized by `scale`
         (fields), realized into plain geometry."""
