@@ -17,7 +17,7 @@ rest for every parameter combination):
   their drawer; door handles are upright, near the door's inner edge;
 - top board (optional, overhanging at the front and sides), a plinth or four legs; the body
   stands on them, and the cabinet is grounded so that its lowest point lies on z = 0.
-Part labels: body 1, top 2, drawers 3, doors 4, handles 5, plinth 6, legs 7.
+Labels: body 1, top 2, drawers 3, doors 4, handles 5, plinth 6, legs 7.
 """
 
 from __future__ import annotations

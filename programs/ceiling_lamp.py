@@ -18,7 +18,7 @@ Layout: z = up, the ceiling is the plane z = 0 and the lamp hangs below it. Stru
   or a globe (an Index Switch), its rim radius `shade_size` shrunk where needed so that
   neighbouring shades never touch each other or the hub;
 - bulb: a round sweep hanging from the socket's bottom inside the shade.
-Part labels: canopy 1, rod 2, hub 3, arms 4, sockets 5, shades 6, bulbs 7.
+Labels: canopy 1, rod 2, hub 3, arms 4, sockets 5, shades 6, bulbs 7.
 The lamp hangs: `HANGS` tells the evaluation that a drop test does not apply to it.
 """
 
@@ -112,10 +112,10 @@ def _canopy(g: Graph, p: dict):
                  scale=scale, fill_caps=True, label=CANOPY)["Mesh"]
 
 
-def _upright(g: Graph, top, bottom, radius, part):
+def _upright(g: Graph, top, bottom, radius, label):
     """A vertical cylinder of `radius` on the axis from z=top down to z=bottom."""
     return straight_frame(g, start=g.vec(0.0, 0.0, top), end=g.vec(0.0, 0.0, bottom),
-                          width=radius * 2.0, depth=radius * 2.0, roundness=1.0, label=part)
+                          width=radius * 2.0, depth=radius * 2.0, roundness=1.0, label=label)
 
 
 def _arm(g: Graph, p: dict, hub_z):

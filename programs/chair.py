@@ -17,7 +17,7 @@ overall scale. Structure (every part touches the rest for every parameter combin
   and a pad, or a loop (MeshQuadraticPolarFrame) from the frame down into the seat;
 - the chair is scaled per axis and grounded so that its lowest point lies on z = 0.
 Selectors reach the geometry only through Switch / Index Switch nodes, so visibility rules
-are inferred from the graph. In Blender's node editor each part is a node group: Seat,
+are inferred from the graph. In Blender's node editor each piece is a node group: Seat,
 Back Frame, Cushion, Legs, Monoleg, Backrest, Armrests.
 """
 
@@ -46,7 +46,7 @@ from geocode.nodes import (
     top_rail,
 )
 
-# part labels (segmentation)
+# labels (segmentation)
 (SEAT, CUSHION, LEGS, BACK_FRAME, CROSS_RAILS, VERTICAL_RAILS, TOP_RAIL, BACK_PANEL,
  ARMRESTS, ARM_SUPPORTS, ARM_PADS, MONOLEG, TENT_LEGS) = range(1, 14)
 
@@ -175,14 +175,14 @@ class _Chair:
         self.frame_curve = g.named("frame path", frame["Curve"])
         self.frame = frame["Mesh"]
 
-    def frame_sweep(self, width, depth, roundness, part):
+    def frame_sweep(self, width, depth, roundness, label):
         """The frame's path moved to x = 0 and swept with another profile (panels, rails)."""
         g = self.g
         centred = g.transform(self.frame_curve, translation=g.vec(-self.frame_x, 0.0, 0.0))
         profile = rectangle_fillet(g, width=width, height=depth, roundness=roundness,
                                    resolution=2)["Curve"]
         return aligned_bevel_xy(g, curve=centred, profile_curve=profile, radius=1.0,
-                                fill_caps=True, label=part)["Mesh"]
+                                fill_caps=True, label=label)["Mesh"]
 
 
 def _cushion(c: _Chair):

@@ -16,7 +16,7 @@ parameter combination):
 - or a pedestal: a column whose silhouette is a Bezier profile (StyleBezierSegment) on
   radial feet (MeshQuadraticCartesian, arched by their curvature) or on a round base plate;
 - the table is grounded so that its lowest point lies on z = 0.
-Each part is a named node group in the .blend (`g.part`). Selectors reach the geometry only
+Each piece is a named node group in the .blend (`g.group`). Selectors reach the geometry only
 through Switch / Index Switch nodes, so visibility rules are inferred from the graph.
 """
 
@@ -37,7 +37,7 @@ from geocode.nodes import (
     straight_frame,
 )
 
-# part labels (segmentation)
+# labels (segmentation)
 TOP, LEGS, APRONS, STRETCHERS, SHELF, COLUMN, FEET, BASE_PLATE = range(1, 9)
 
 LEG_INSET = 1.2          # legs sit at least this many radii inside the top's corner
@@ -137,9 +137,9 @@ class _Legs:
         return sample_curve(self.t.g, curve=self.axis, factor=1.0 - share)["Position"]
 
 
-def _bar(g: Graph, start, end, width, depth, roundness, part):
+def _bar(g: Graph, start, end, width, depth, roundness, label):
     return straight_frame(g, start=start, end=end, width=width, depth=depth,
-                          roundness=roundness, axis=UP, label=part)["Mesh"]
+                          roundness=roundness, axis=UP, label=label)["Mesh"]
 
 
 def _aprons(legs: _Legs):

@@ -10,8 +10,8 @@ Structure (every part touches the rest for every parameter combination):
 - lid and knob on the lip, a rim around the lip, a band around the body;
 - foot: none, a pedestal, or radially placed legs; the whole vase is then grounded so that
   its lowest point lies on z = 0.
-Part labels: body 1, rim 2, band 3, handle 4, lid 5, knob 6, foot 7. In Blender's node
-editor each part is a node group: Body, Lip Rim, Band, Handles, Lid, Pedestal, Legs.
+Labels: body 1, rim 2, band 3, handle 4, lid 5, knob 6, foot 7. In Blender's node
+editor each piece is a node group: Body, Lip Rim, Band, Handles, Lid, Pedestal, Legs.
 """
 
 from __future__ import annotations
@@ -202,12 +202,12 @@ def _handles(body: _Body):
     return g.when(p["handle_count"] > 0, copies)
 
 
-def _ring(body: _Body, shown, factor, size, part):
+def _ring(body: _Body, shown, factor, size, label):
     """When `shown`: a tube of radius `size` around the body's outline at `factor` of its
     height."""
     g = body.g
     ring = rail(g, curve=body.loop_at(factor), profile_curve=_tube_profile(g), radius=size,
-                fill_caps=False, label=part)["Mesh"]
+                fill_caps=False, label=label)["Mesh"]
     return g.when(shown, ring)
 
 

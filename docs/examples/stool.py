@@ -8,7 +8,7 @@ parameter combination:
   seat's half-width (inside the seat at any roundness) down to the floor, the foot spread
   outwards by `leg_splay`;
 - footrest: a ring at `footrest_height` (share of the seat height) through the legs' axes.
-Part labels: seat 1, legs 2, footrest 3.
+Labels: seat 1, legs 2, footrest 3.
 """
 
 from __future__ import annotations
