@@ -17,7 +17,7 @@ rest for every parameter combination):
   their drawer; door handles are upright, near the door's inner edge;
 - top board (optional, overhanging at the front and sides), a plinth or four legs; the body
   stands on them, and the cabinet is grounded so that its lowest point lies on z = 0.
-Part labels: body 1, top 2, drawers 3, doors 4, handles 5, plinth 6, legs 7.
+Labels: body 1, top 2, drawers 3, doors 4, handles 5, plinth 6, legs 7.
 """
 
 from __future__ import annotations
@@ -27,7 +27,9 @@ import math
 from geocode.nodes import (
     Graph,
     Repeat,
+    bezier_segment_style,
     handle,
+    leg_mesh,
     loft,
     mirror,
     quadratic_cartesian,
@@ -35,10 +37,9 @@ from geocode.nodes import (
     rectangle_fillet,
     sample_curve,
     sample_curve_array,
+    seat,
     solidify,
 )
-from geocode.nodes.parts import leg_mesh, seat
-from geocode.nodes.styles import bezier_segment_style
 
 BODY, TOP, DRAWERS, DOORS, HANDLES, PLINTH, LEGS = range(1, 8)
 
@@ -128,7 +129,7 @@ class _Cabinet:
 def _body(c: _Cabinet):
     g, p = c.g, c.p
     outline = loft(g, curve_a=c.left, curve_b=c.right, rows=SIDE_RESOLUTION)["Mesh"]
-    return g.label_part(solidify(g, mesh=outline, thickness=p["depth"])["Mesh"], BODY)
+    return g.label(solidify(g, mesh=outline, thickness=p["depth"])["Mesh"], BODY)
 
 
 # -- fronts -------------------------------------------------------------------------------------
@@ -140,9 +141,8 @@ class _Row:
         g, p = c.g, c.p
         self.c, self.g, self.p = c, g, p
         self.is_door = zone.iteration < p["door_rows"]
-        self.columns = g.switch(self.is_door, choices["drawer_columns"],
-                                choices["door_columns"])
-        weight = g.switch(self.is_door, 1.0, choices["door_height"])
+        self.columns = g.when(self.is_door, choices["door_columns"], choices["drawer_columns"])
+        weight = g.when(self.is_door, choices["door_height"], 1.0)
         usable = 1.0 - 2.0 * c.along(p["frame_width"])
         self.start = zone["start"]
         self.end = self.start + usable * weight / total_weight
@@ -151,8 +151,8 @@ class _Row:
         # counted from the top, the open drawer slides out by the travel
         from_top = rows - zone.iteration
         is_open = g.compare("EQUAL", from_top, p["open_drawer"]) & ~self.is_door
-        self.travel = g.switch(is_open, 0.0, choices["travel"])
-        self.label = g.switch(self.is_door, DRAWERS, DOORS)
+        self.travel = g.when(is_open, choices["travel"], 0.0)
+        self.label = g.when(self.is_door, DOORS, DRAWERS)
 
     def _loft(self, low, high, span_start, span_end):
         return loft(self.g, curve_a=self.c.inner_left, curve_b=self.c.inner_right, start=low,
@@ -177,7 +177,7 @@ class _Row:
                              span_start + margin, span_end - margin)
         back = g.transform(surface, translation=g.vec(0, -self.travel, 0))
         box = solidify(g, mesh=back, thickness=self.travel + SINK)["Mesh"]
-        return g.switch(self.travel > 0.0, None, box)
+        return g.when(self.travel > 0.0, box)
 
     def fronts(self):
         """The row's fronts, one pass of a nested repeat zone per column."""
@@ -192,7 +192,7 @@ class _Row:
         """A handle on each front: SampleCurveArray on the row's line across its fronts, at
         the handle's height on the fronts' face, gives the fronts' centres."""
         g, p, c = self.g, self.p, self.c
-        height = g.lerp(self.low, self.high, g.switch(self.is_door, p["handle_height"], 0.5))
+        height = g.lerp(self.low, self.high, g.when(self.is_door, 0.5, p["handle_height"]))
         edge = sample_curve(g, curve=c.inner_right, factor=height)["Position"]
         face = c.front - self.travel - p["front_thickness"]
         line = g.line(g.vec(-edge.x, face, edge.z), g.vec(edge.x, face, edge.z))
@@ -203,8 +203,8 @@ class _Row:
         front_height = (self.high - self.low) * c.side_length
         # doors: the handle moves towards the cabinet's middle, beside the door's inner edge
         inward = g.math("SIGN", g.position().x) * front_width * (-0.5 * DOOR_HANDLE_SHIFT)
-        placed = g.set_position(centres, offset=g.vec(g.switch(self.is_door, 0.0, inward), 0, 0))
-        length = p["handle_length"] * g.switch(self.is_door, front_width, front_height)
+        placed = g.set_position(centres, offset=g.vec(g.when(self.is_door, inward, 0.0), 0, 0))
+        length = p["handle_length"] * g.when(self.is_door, front_height, front_width)
 
         def on_fronts(handle):
             # handle +x (out of the front) -> world -y; its z (along a bar) -> world x, or z
@@ -212,7 +212,7 @@ class _Row:
             lying = g.transform(g.transform(handle, rotation=(0.0, math.pi / 2, 0.0)),
                                 rotation=(-math.pi / 2, 0.0, 0.0))
             upright = g.transform(handle, rotation=(0.0, 0.0, -math.pi / 2))
-            return g.instance_on_points(placed, g.switch(self.is_door, lying, upright))
+            return g.instance_on_points(placed, g.when(self.is_door, upright, lying))
 
         return g.index_switch(p["handle_style"], [None, on_fronts(_bar(c, length)),
                                                   on_fronts(_knob(c))])
@@ -230,7 +230,7 @@ def _bar(c: _Cabinet, length):
     profile = rectangle_fillet(g, width=2.0, height=2.0, roundness=p["handle_roundness"],
                                resolution=2)["Curve"]
     return rail(g, curve=curve, profile_curve=profile, radius=p["handle_thickness"],
-                fill_caps=True, part=HANDLES)["Mesh"]
+                fill_caps=True, label=HANDLES)["Mesh"]
 
 
 def _knob(c: _Cabinet):
@@ -241,7 +241,7 @@ def _knob(c: _Cabinet):
     size = p["knob_size"]
     return bezier_segment_style(g, curve=stem, profile_curve=profile, start=0.4 * size,
                                 start_handle=0.4 * size, end_handle=1.3 * size,
-                                end=0.6 * size, fill_caps=True, part=HANDLES)["Mesh"]
+                                end=0.6 * size, fill_caps=True, label=HANDLES)["Mesh"]
 
 
 def _fronts(c: _Cabinet):
@@ -249,17 +249,17 @@ def _fronts(c: _Cabinet):
     the sides starts where the previous one ended."""
     g, p = c.g, c.p
     has_drawers, has_doors = p["drawer_rows"] > 0, p["door_rows"] > 0
-    travel = g.switch(p["open_drawer"] > 0, 0.0, p["drawer_open"] * p["depth"])
+    travel = g.when(p["open_drawer"] > 0, p["drawer_open"] * p["depth"], 0.0)
     # parameters of absent rows reach no geometry: their rules are inferred from these
-    choices = {"travel": g.switch(has_drawers, 0.0, travel),
-               "drawer_columns": g.switch(has_drawers, 1, p["drawer_columns"]),
-               "door_columns": g.switch(has_doors, 1, p["door_columns"]),
-               "door_height": g.switch(has_doors, 1.0, p["door_height"])}
+    choices = {"travel": g.when(has_drawers, travel, 0.0),
+               "drawer_columns": g.when(has_drawers, p["drawer_columns"], 1),
+               "door_columns": g.when(has_doors, p["door_columns"], 1),
+               "door_height": g.when(has_doors, p["door_height"], 1.0)}
     rows = p["drawer_rows"] + p["door_rows"]
     total = g.max(p["drawer_rows"] + p["door_rows"] * choices["door_height"], 1.0)
     zone = Repeat(g, rows, geometry=None, start=c.along(p["frame_width"]))
     row = _Row(c, zone, rows, total, choices)
-    built = g.join([zone["geometry"], g.label_part(row.fronts(), row.label),
+    built = g.join([zone["geometry"], g.label(row.fronts(), row.label),
                     row.handles()])
     return zone.close(geometry=built, start=row.end)["geometry"]
 
@@ -272,16 +272,16 @@ def _top_board(c: _Cabinet):
     board = seat(g, width=p["width"] * p["top_width"] + 2.0 * overhang,
                  depth=p["depth"] + overhang, roundness=0.0,
                  top=c.top + p["top_thickness"] - SINK, thickness=p["top_thickness"],
-                 bevel=p["top_bevel"], part=TOP)["Mesh"]
+                 bevel=p["top_bevel"], label=TOP)["Mesh"]
     moved = g.transform(board, translation=g.vec(0, -0.5 * overhang, 0))
-    return g.switch(p["top_board"], None, moved)
+    return g.when(p["top_board"], moved)
 
 
 def _plinth(c: _Cabinet):
     g, p = c.g, c.p
     inset = 2.0 * p["plinth_inset"]
     return seat(g, width=p["width"] - inset, depth=p["depth"] - inset, roundness=0.0,
-                top=c.bottom + SINK, thickness=c.bottom + SINK, bevel=0.0, part=PLINTH)["Mesh"]
+                top=c.bottom + SINK, thickness=c.bottom + SINK, bevel=0.0, label=PLINTH)["Mesh"]
 
 
 def _legs(c: _Cabinet):
@@ -292,7 +292,7 @@ def _legs(c: _Cabinet):
     one = leg_mesh(g, top=g.vec(x, y, c.bottom + SINK), bottom=g.vec(x + splay, y + splay, 0.0),
                    curvature=1.0, top_radius=p["leg_thickness"],
                    bottom_radius=p["leg_thickness"] * p["leg_taper"],
-                   roundness=p["leg_roundness"], part=LEGS)["Mesh"]
+                   roundness=p["leg_roundness"], label=LEGS)["Mesh"]
     pair = mirror(g, geometry=one, axis=0)["Geometry"]
     return mirror(g, geometry=pair, axis=1)["Geometry"]
 
@@ -300,17 +300,17 @@ def _legs(c: _Cabinet):
 def build(g: Graph) -> None:
     with g.frame("Parameters"):
         p = _parameters(g)
-    with g.part("Sides"):
+    with g.group("Sides"):
         c = _Cabinet(g, p)
-    with g.part("Body"):
+    with g.group("Body"):
         body = _body(c)
-    with g.part("Fronts"):
+    with g.group("Fronts"):
         fronts = _fronts(c)
-    with g.part("Top Board"):
+    with g.group("Top Board"):
         top = _top_board(c)
-    with g.part("Plinth"):
+    with g.group("Plinth"):
         plinth = _plinth(c)
-    with g.part("Legs"):
+    with g.group("Legs"):
         legs = _legs(c)
     with g.frame("Assembly"):
         base = g.index_switch(p["base_style"], [None, plinth, legs])

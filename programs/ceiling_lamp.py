@@ -18,7 +18,7 @@ Layout: z = up, the ceiling is the plane z = 0 and the lamp hangs below it. Stru
   or a globe (an Index Switch), its rim radius `shade_size` shrunk where needed so that
   neighbouring shades never touch each other or the hub;
 - bulb: a round sweep hanging from the socket's bottom inside the shade.
-Part labels: canopy 1, rod 2, hub 3, arms 4, sockets 5, shades 6, bulbs 7.
+Labels: canopy 1, rod 2, hub 3, arms 4, sockets 5, shades 6, bulbs 7.
 The lamp hangs: `HANGS` tells the evaluation that a drop test does not apply to it.
 """
 
@@ -29,13 +29,14 @@ import math
 from geocode.nodes import (
     Graph,
     align_curve_tilt_to_axis,
+    quadratic_cartesian_mesh,
     radial,
     rectangle_fillet,
     sample_curve,
     shell,
+    straight_frame,
     sweep,
 )
-from geocode.nodes.parts import quadratic_cartesian_mesh, straight_frame
 
 HANGS = True  # hung from the ceiling: valid = one piece; no drop test (stability "n/a")
 
@@ -108,13 +109,13 @@ def _canopy(g: Graph, p: dict):
     below = 1.0 - g.spline_factor()
     scale = p["canopy_radius"] * (1.0 - CANOPY_BULGE * below * below)
     return sweep(g, curve=path, profile_curve=_outline(g, p["canopy_roundness"], 4),
-                 scale=scale, fill_caps=True, part=CANOPY)["Mesh"]
+                 scale=scale, fill_caps=True, label=CANOPY)["Mesh"]
 
 
-def _upright(g: Graph, top, bottom, radius, part):
+def _upright(g: Graph, top, bottom, radius, label):
     """A vertical cylinder of `radius` on the axis from z=top down to z=bottom."""
     return straight_frame(g, start=g.vec(0.0, 0.0, top), end=g.vec(0.0, 0.0, bottom),
-                          width=radius * 2.0, depth=radius * 2.0, roundness=1.0, part=part)
+                          width=radius * 2.0, depth=radius * 2.0, roundness=1.0, label=label)
 
 
 def _arm(g: Graph, p: dict, hub_z):
@@ -128,7 +129,7 @@ def _arm(g: Graph, p: dict, hub_z):
     mesh = quadratic_cartesian_mesh(
         g, start=g.vec(p["hub_radius"] * 0.5, 0.0, hub_z), end=end,
         offset=g.vec(0.0, 0.0, lift), radius=p["arm_thickness"], roundness=1.0,
-        axis=(0.0, 1.0, 0.0), part=ARMS)["Mesh"]
+        axis=(0.0, 1.0, 0.0), label=ARMS)["Mesh"]
     return mesh, end
 
 
@@ -138,7 +139,7 @@ def _socket(g: Graph, p: dict, end):
     width = p["arm_thickness"] * (2 * SOCKET_WIDTH)
     return straight_frame(g, start=end + g.vec(0.0, 0.0, p["arm_thickness"] * 1.5),
                           end=end - (0.0, 0.0, SOCKET_LENGTH), width=width, depth=width,
-                          roundness=1.0, part=SOCKETS)["Mesh"]
+                          roundness=1.0, label=SOCKETS)["Mesh"]
 
 
 def _rim(g: Graph, p: dict, end):
@@ -168,7 +169,7 @@ def _shade(g: Graph, p: dict, end, rim):
     path = _vertical_path(g, end.x, top - p["shade_height"], top, SHADE_RINGS)
     return shell(g, curve=path, profile_curve=_outline(g, p["shade_roundness"], 3),
                  scale=rim * _shade_profile(g, p), thickness=p["shade_thickness"],
-                 part=SHADES)["Mesh"]
+                 label=SHADES)["Mesh"]
 
 
 def _bulb(g: Graph, p: dict, end, rim):
@@ -181,30 +182,30 @@ def _bulb(g: Graph, p: dict, end, rim):
     centred = g.spline_factor() * 1.8 - 0.9
     return sweep(g, curve=path, profile_curve=_outline(g, 1.0, 2),
                  scale=radius * g.sqrt(1.0 - centred * centred), fill_caps=True,
-                 part=BULBS)["Mesh"]
+                 label=BULBS)["Mesh"]
 
 
 def build(g: Graph) -> None:
     with g.frame("Parameters"):
         p = _parameters(g)
-    with g.part("Canopy"):
+    with g.group("Canopy"):
         canopy = _canopy(g, p)
-    with g.part("Rod"):  # from inside the canopy down by rod_length below it
+    with g.group("Rod"):  # from inside the canopy down by rod_length below it
         rod = _upright(g, p["canopy_height"] * -0.5, -p["canopy_height"] - p["rod_length"],
                        p["rod_thickness"], ROD)
-    with g.part("Hub"):  # where the rod is sampled at arm_attach of its length
+    with g.group("Hub"):  # where the rod is sampled at arm_attach of its length
         at = sample_curve(g, curve=rod["Curve"], factor=p["arm_attach"])["Position"]
         hub_z = g.named("hub_z", at.z)
         half = p["hub_height"] * 0.5
         hub = _upright(g, hub_z + half, hub_z - half, p["hub_radius"], HUB)["Mesh"]
-    with g.part("Arm"):
+    with g.group("Arm"):
         arm, end = _arm(g, p, hub_z)
-    with g.part("Socket"):
+    with g.group("Socket"):
         socket = _socket(g, p, end)
-    with g.part("Shade"):
+    with g.group("Shade"):
         rim = _rim(g, p, end)
         shade = _shade(g, p, end, rim)
-    with g.part("Bulb"):
+    with g.group("Bulb"):
         bulb = _bulb(g, p, end, rim)
     with g.frame("Assembly"):
         one = g.join([arm, socket, shade, bulb])

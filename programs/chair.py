@@ -17,7 +17,7 @@ overall scale. Structure (every part touches the rest for every parameter combin
   and a pad, or a loop (MeshQuadraticPolarFrame) from the frame down into the seat;
 - the chair is scaled per axis and grounded so that its lowest point lies on z = 0.
 Selectors reach the geometry only through Switch / Index Switch nodes, so visibility rules
-are inferred from the graph. In Blender's node editor each part is a node group: Seat,
+are inferred from the graph. In Blender's node editor each piece is a node group: Seat,
 Back Frame, Cushion, Legs, Monoleg, Backrest, Armrests.
 """
 
@@ -25,22 +25,28 @@ from __future__ import annotations
 
 import math
 
-from geocode.nodes import Graph, mirror, radial, rectangle_fillet, sample_curve, sample_curve_array
-from geocode.nodes.parts import (
+from geocode.nodes import (
+    Graph,
+    aligned_bevel_xy,
+    bezier_segment_style,
     cross_rail,
     cushion_mesh,
     frame_fixed_bottom,
     leg_mesh,
+    mirror,
     quadratic_cartesian_aligned_xy_frame,
     quadratic_cartesian_mesh,
     quadratic_polar_frame,
+    radial,
+    rectangle_fillet,
+    sample_curve,
+    sample_curve_array,
     seat,
     straight_frame,
     top_rail,
 )
-from geocode.nodes.styles import aligned_bevel_xy, bezier_segment_style
 
-# part labels (segmentation)
+# labels (segmentation)
 (SEAT, CUSHION, LEGS, BACK_FRAME, CROSS_RAILS, VERTICAL_RAILS, TOP_RAIL, BACK_PANEL,
  ARMRESTS, ARM_SUPPORTS, ARM_PADS, MONOLEG, TENT_LEGS) = range(1, 14)
 
@@ -132,7 +138,7 @@ class _Chair:
         self.g, self.p = g, p
         self.seat = seat(g, width=SEAT_SIZE, depth=SEAT_SIZE, roundness=p["seat_roundness"],
                          top=p["seat_height"], thickness=p["seat_thickness"],
-                         bevel=p["seat_bevel"], part=SEAT)
+                         bevel=p["seat_bevel"], label=SEAT)
         corner = self.seat["Corner"]
         self.corner_x = g.named("corner x", corner.x)
         self.corner_y = g.named("corner y", corner.y)
@@ -165,18 +171,18 @@ class _Chair:
         frame = quadratic_cartesian_aligned_xy_frame(
             g, start=bottom, end=top, offset=bow, width=p["frame_width"],
             depth=p["frame_depth"], roundness=p["frame_roundness"], bevel=p["rail_bevel"],
-            part=BACK_FRAME)
+            label=BACK_FRAME)
         self.frame_curve = g.named("frame path", frame["Curve"])
         self.frame = frame["Mesh"]
 
-    def frame_sweep(self, width, depth, roundness, part):
+    def frame_sweep(self, width, depth, roundness, label):
         """The frame's path moved to x = 0 and swept with another profile (panels, rails)."""
         g = self.g
         centred = g.transform(self.frame_curve, translation=g.vec(-self.frame_x, 0.0, 0.0))
         profile = rectangle_fillet(g, width=width, height=depth, roundness=roundness,
                                    resolution=2)["Curve"]
         return aligned_bevel_xy(g, curve=centred, profile_curve=profile, radius=1.0,
-                                fill_caps=True, part=part)["Mesh"]
+                                fill_caps=True, label=label)["Mesh"]
 
 
 def _cushion(c: _Chair):
@@ -186,8 +192,8 @@ def _cushion(c: _Chair):
                           roundness=p["seat_roundness"],
                           bottom=p["seat_height"] - p["seat_thickness"] * 0.2,
                           thickness=p["cushion_thickness"], fill=p["cushion_fill"],
-                          part=CUSHION)
-    return g.switch(p["cushion"], None, pillow["Mesh"])
+                          label=CUSHION)
+    return g.when(p["cushion"], pillow["Mesh"])
 
 
 # -- legs -------------------------------------------------------------------------------------
@@ -206,8 +212,8 @@ def _four_legs(c: _Chair):
     legs = [leg_mesh(g, top=tops[k], bottom=feet[k], curvature=p["leg_curvature"],
                      top_radius=p["leg_thickness"],
                      bottom_radius=p["leg_thickness"] * p["leg_taper"],
-                     roundness=p["leg_bevel"], part=LEGS)["Mesh"] for k in ("front", "back")]
-    return g.switch(p["monoleg"], g.join(legs), None)
+                     roundness=p["leg_bevel"], label=LEGS)["Mesh"] for k in ("front", "back")]
+    return g.when(p["monoleg"], None, g.join(legs))
 
 
 def _monoleg(c: _Chair):
@@ -215,16 +221,16 @@ def _monoleg(c: _Chair):
     with tent legs its foot is lifted by `TENT_HUB` and the legs, joined into it, carry the
     chair."""
     g, p = c.g, c.p
-    foot = g.switch(p["tent_legs"], 0.0, TENT_HUB)
+    foot = g.when(p["tent_legs"], TENT_HUB, 0.0)
     path = g.line(g.vec(0.0, 0.0, c.inside), g.vec(0.0, 0.0, foot), count=12)
     profile = rectangle_fillet(g, width=2.0, height=2.0, roundness=1.0,
                                resolution=3)["Curve"]
     column = bezier_segment_style(
         g, curve=path, profile_curve=profile, start=p["monoleg_top_radius"],
         start_handle=p["monoleg_top_handle"], end_handle=p["monoleg_bottom_handle"],
-        end=p["monoleg_bottom_radius"], fill_caps=True, part=MONOLEG)["Mesh"]
-    monoleg = g.join([column, g.switch(p["tent_legs"], None, _tent_legs(c, foot))])
-    return g.switch(p["monoleg"], None, monoleg)
+        end=p["monoleg_bottom_radius"], fill_caps=True, label=MONOLEG)["Mesh"]
+    monoleg = g.join([column, g.when(p["tent_legs"], _tent_legs(c, foot))])
+    return g.when(p["monoleg"], monoleg)
 
 
 def _tent_legs(c: _Chair, foot):
@@ -236,7 +242,7 @@ def _tent_legs(c: _Chair, foot):
     offset = g.vec(p["tent_leg_spread"] * 0.5, 0.0, 0.0)
     one = quadratic_cartesian_mesh(g, start=hub, end=toe, offset=offset,
                                    radius=p["tent_leg_thickness"], roundness=1.0,
-                                   axis=(0.0, 1.0, 0.0), part=TENT_LEGS)["Mesh"]
+                                   axis=(0.0, 1.0, 0.0), label=TENT_LEGS)["Mesh"]
     # one leg always points backwards (+y), under the backrest
     return radial(g, geometry=one, count=p["tent_leg_count"], radius=0.0,
                   start_angle=math.pi / 2)["Geometry"]
@@ -255,7 +261,7 @@ def _cross_rails(c: _Chair):
     return cross_rail(g, points=points, half_length=c.frame_x,
                       thickness_y=p["cross_rail_thickness_y"],
                       thickness_z=p["cross_rail_thickness_z"],
-                      roundness=p["cross_rail_roundness"], part=CROSS_RAILS)["Mesh"]
+                      roundness=p["cross_rail_roundness"], label=CROSS_RAILS)["Mesh"]
 
 
 def _vertical_rails(c: _Chair):
@@ -280,18 +286,18 @@ def _top_rail(c: _Chair):
                     half_length=c.frame_x + p["frame_width"] * 0.5,
                     size=p["top_rail_size"], depth=p["top_rail_depth"],
                     roundness=p["top_rail_roundness"], fill=p["top_rail_fill"],
-                    part=TOP_RAIL)["Mesh"]
-    return g.switch(p["top_rail"], None, mesh)
+                    label=TOP_RAIL)["Mesh"]
+    return g.when(p["top_rail"], mesh)
 
 
 def _backrest(c: _Chair):
     """Between the frames: a solid panel (`backrest_solid`), else cross or vertical rails
     with the optional top rail."""
     g, p = c.g, c.p
-    rails = g.switch(p["vertical_rails"], _cross_rails(c), _vertical_rails(c))
+    rails = g.when(p["vertical_rails"], _vertical_rails(c), _cross_rails(c))
     open_back = g.join([rails, _top_rail(c)])
     panel = c.frame_sweep(c.frame_x * 2.0, p["solid_thickness"], 0.0, BACK_PANEL)
-    return g.switch(p["backrest_solid"], open_back, panel)
+    return g.when(p["backrest_solid"], panel, open_back)
 
 
 # -- armrests -------------------------------------------------------------------------------
@@ -320,19 +326,19 @@ def _straight_arm(c: _Chair, arm: _Arm):
     front = g.vec(arm.x, arm.front_y, p["seat_height"] + rise * p["armrest_front_height"])
     bar = straight_frame(g, start=arm.back, end=front, width=p["armrest_width"],
                          depth=p["armrest_height"], roundness=p["armrest_roundness"],
-                         part=ARMRESTS)["Mesh"]
+                         label=ARMRESTS)["Mesh"]
     support = frame_fixed_bottom(g, bottom=arm.seat_point, top=front, curvature=1.0,
                                  width=p["armrest_width"] * 0.6,
                                  depth=p["armrest_width"] * 0.6,
-                                 roundness=p["armrest_roundness"], part=ARM_SUPPORTS)["Mesh"]
+                                 roundness=p["armrest_roundness"], label=ARM_SUPPORTS)["Mesh"]
     lift = g.vec(0.0, 0.0,
                  (p["armrest_height"] + p["armrest_pad_thickness"]) * (0.5 - PAD_SINK))
     pad = straight_frame(g, start=arm.back + lift, end=front + lift,
                          width=p["armrest_width"] * 1.2,
                          depth=p["armrest_pad_thickness"], roundness=1.0,
-                         part=ARM_PADS)["Mesh"]
-    return g.join([bar, g.switch(p["armrest_support"], None, support),
-                   g.switch(p["armrest_cushion"], None, pad)])
+                         label=ARM_PADS)["Mesh"]
+    return g.join([bar, g.when(p["armrest_support"], support),
+                   g.when(p["armrest_cushion"], pad)])
 
 
 def _loop_arm(c: _Chair, arm: _Arm):
@@ -349,7 +355,7 @@ def _loop_arm(c: _Chair, arm: _Arm):
                                  distance=g.distance(start, end) * ARM_LOOP_BULGE,
                                  width=p["armrest_width"], depth=p["armrest_height"],
                                  roundness=p["armrest_roundness"], axis=(0.0, -1.0, 0.0),
-                                 part=ARMRESTS)["Mesh"]
+                                 label=ARMRESTS)["Mesh"]
     return g.transform(loop, rotation=(0.0, 0.0, math.pi / 2))
 
 
@@ -365,19 +371,19 @@ def _armrests(c: _Chair):
 def build(g: Graph) -> None:
     with g.frame("Parameters"):
         p = _parameters(g)
-    with g.part("Seat"):
+    with g.group("Seat"):
         c = _Chair(g, p)
-    with g.part("Back Frame"):
+    with g.group("Back Frame"):
         c.build_frame()
-    with g.part("Cushion"):
+    with g.group("Cushion"):
         pillow = _cushion(c)
-    with g.part("Legs"):
+    with g.group("Legs"):
         legs = _four_legs(c)
-    with g.part("Monoleg"):
+    with g.group("Monoleg"):
         monoleg = _monoleg(c)
-    with g.part("Backrest"):
+    with g.group("Backrest"):
         backrest = _backrest(c)
-    with g.part("Armrests"):
+    with g.group("Armrests"):
         armrests = _armrests(c)
     with g.frame("Assembly"):
         # the right side is mirrored in x; the chair is scaled per axis and then rests on z = 0

@@ -16,7 +16,7 @@ parameter combination):
 - or a pedestal: a column whose silhouette is a Bezier profile (StyleBezierSegment) on
   radial feet (MeshQuadraticCartesian, arched by their curvature) or on a round base plate;
 - the table is grounded so that its lowest point lies on z = 0.
-Each part is a named node group in the .blend (`g.part`). Selectors reach the geometry only
+Each piece is a named node group in the .blend (`g.group`). Selectors reach the geometry only
 through Switch / Index Switch nodes, so visibility rules are inferred from the graph.
 """
 
@@ -24,11 +24,20 @@ from __future__ import annotations
 
 import math
 
-from geocode.nodes import Graph, mirror, radial, rectangle_fillet, sample_curve
-from geocode.nodes.parts import leg_mesh, quadratic_cartesian_mesh, seat, straight_frame
-from geocode.nodes.styles import bezier_segment_style
+from geocode.nodes import (
+    Graph,
+    bezier_segment_style,
+    leg_mesh,
+    mirror,
+    quadratic_cartesian_mesh,
+    radial,
+    rectangle_fillet,
+    sample_curve,
+    seat,
+    straight_frame,
+)
 
-# part labels (segmentation)
+# labels (segmentation)
 TOP, LEGS, APRONS, STRETCHERS, SHELF, COLUMN, FEET, BASE_PLATE = range(1, 9)
 
 LEG_INSET = 1.2          # legs sit at least this many radii inside the top's corner
@@ -92,7 +101,7 @@ class _Table:
         self.g, self.p = g, p
         top = seat(g, width=p["top_width"], depth=p["top_depth"], roundness=p["top_roundness"],
                    top=p["top_height"], thickness=p["top_thickness"], bevel=p["top_bevel"],
-                   part=TOP)
+                   label=TOP)
         self.mesh, self.corner = top["Mesh"], top["Corner"]
         # attachments start inside the slab: halfway down from its top
         self.inside = g.named("inside", p["top_height"] - p["top_thickness"] * SINK)
@@ -118,7 +127,7 @@ class _Legs:
                        bottom=g.vec(self.x + splay, self.y + splay, 0.0),
                        curvature=p["leg_curvature"], top_radius=p["leg_thickness"],
                        bottom_radius=p["leg_thickness"] * p["leg_taper"],
-                       roundness=p["leg_bevel"], part=LEGS)
+                       roundness=p["leg_bevel"], label=LEGS)
         self.axis = g.named("leg axis", one["Curve"])
         self.mesh = mirror(g, geometry=mirror(g, geometry=one["Mesh"], axis=0)["Geometry"],
                            axis=1)["Geometry"]
@@ -128,9 +137,9 @@ class _Legs:
         return sample_curve(self.t.g, curve=self.axis, factor=1.0 - share)["Position"]
 
 
-def _bar(g: Graph, start, end, width, depth, roundness, part):
+def _bar(g: Graph, start, end, width, depth, roundness, label):
     return straight_frame(g, start=start, end=end, width=width, depth=depth,
-                          roundness=roundness, axis=UP, part=part)["Mesh"]
+                          roundness=roundness, axis=UP, label=label)["Mesh"]
 
 
 def _aprons(legs: _Legs):
@@ -150,7 +159,7 @@ def _aprons(legs: _Legs):
                0.0, APRONS)
     aprons = g.join([mirror(g, geometry=side, axis=0)["Geometry"],
                      mirror(g, geometry=end, axis=1)["Geometry"]])
-    return g.switch(p["aprons"], None, aprons)
+    return g.when(p["aprons"], aprons)
 
 
 def _stretchers(legs: _Legs):
@@ -178,8 +187,8 @@ def _shelf(legs: _Legs):
     point = legs.at(p["shelf_height"])
     slab = seat(g, width=point.x * 2.0, depth=point.y * 2.0, roundness=0.0,
                 top=point.z + p["shelf_thickness"] * 0.5, thickness=p["shelf_thickness"],
-                bevel=0.0, part=SHELF)["Mesh"]
-    return g.switch(p["shelf"], None, slab)
+                bevel=0.0, label=SHELF)["Mesh"]
+    return g.when(p["shelf"], slab)
 
 
 # -- pedestal ----------------------------------------------------------------------------------
@@ -188,14 +197,14 @@ def _column(t: _Table):
     """A column from inside the top down to its end: above the floor on feet, or inside the
     base plate; its silhouette is a Bezier profile."""
     g, p = t.g, t.p
-    end = g.switch(p["base_plate"], p["foot_rise"], p["base_thickness"] * SINK)
+    end = g.when(p["base_plate"], p["base_thickness"] * SINK, p["foot_rise"])
     profile = rectangle_fillet(g, width=2.0, height=2.0, roundness=p["column_roundness"],
                                resolution=3)["Curve"]
     return bezier_segment_style(
         g, curve=g.line(g.vec(0.0, 0.0, t.inside), g.vec(0.0, 0.0, end), count=12),
         profile_curve=profile, start=p["column_top_radius"],
         start_handle=p["column_top_handle"], end_handle=p["column_bottom_handle"],
-        end=p["column_bottom_radius"], fill_caps=True, part=COLUMN)["Mesh"]
+        end=p["column_bottom_radius"], fill_caps=True, label=COLUMN)["Mesh"]
 
 
 def _feet(t: _Table):
@@ -207,7 +216,7 @@ def _feet(t: _Table):
     one = quadratic_cartesian_mesh(g, start=hub, end=toe,
                                    offset=(toe + hub) * (p["foot_curvature"] * 0.5),
                                    radius=p["foot_thickness"], roundness=1.0,
-                                   axis=(0.0, 1.0, 0.0), part=FEET)["Mesh"]
+                                   axis=(0.0, 1.0, 0.0), label=FEET)["Mesh"]
     return radial(g, geometry=one, count=p["foot_count"], radius=0.0,
                   start_angle=math.pi / 2)["Geometry"]
 
@@ -217,7 +226,7 @@ def _base_plate(t: _Table):
     g, p = t.g, t.p
     return seat(g, width=t.reach * 2.0, depth=t.reach * 2.0, roundness=1.0,
                 top=p["base_thickness"], thickness=p["base_thickness"], bevel=BASE_BEVEL,
-                part=BASE_PLATE)["Mesh"]
+                label=BASE_PLATE)["Mesh"]
 
 
 # -- assembly ----------------------------------------------------------------------------------
@@ -225,25 +234,25 @@ def _base_plate(t: _Table):
 def build(g: Graph) -> None:
     with g.frame("Parameters"):
         p = _parameters(g)
-    with g.part("Top"):
+    with g.group("Top"):
         t = _Table(g, p)
-    with g.part("Legs"):
+    with g.group("Legs"):
         legs = _Legs(t)
-    with g.part("Aprons"):
+    with g.group("Aprons"):
         aprons = _aprons(legs)
-    with g.part("Stretchers"):
+    with g.group("Stretchers"):
         stretchers = _stretchers(legs)
-    with g.part("Shelf"):
+    with g.group("Shelf"):
         shelf = _shelf(legs)
-    with g.part("Column"):
+    with g.group("Column"):
         column = _column(t)
-    with g.part("Feet"):
+    with g.group("Feet"):
         feet = _feet(t)
-    with g.part("Base Plate"):
+    with g.group("Base Plate"):
         plate = _base_plate(t)
     with g.frame("Assembly"):
         four_legs = g.join([legs.mesh, aprons, stretchers, shelf])
-        pedestal = g.join([column, g.switch(p["base_plate"], feet, plate)])
-        table = g.join([t.mesh, g.switch(p["pedestal"], four_legs, pedestal)])
+        pedestal = g.join([column, g.when(p["base_plate"], plate, feet)])
+        table = g.join([t.mesh, g.when(p["pedestal"], pedestal, four_legs)])
         # whatever the parts, the lowest point rests on z = 0
         g.output("Geometry", "geometry", g.ground(table))

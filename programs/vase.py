@@ -10,14 +10,15 @@ Structure (every part touches the rest for every parameter combination):
 - lid and knob on the lip, a rim around the lip, a band around the body;
 - foot: none, a pedestal, or radially placed legs; the whole vase is then grounded so that
   its lowest point lies on z = 0.
-Part labels: body 1, rim 2, band 3, handle 4, lid 5, knob 6, foot 7. In Blender's node
-editor each part is a node group: Body, Lip Rim, Band, Handles, Lid, Pedestal, Legs.
+Labels: body 1, rim 2, band 3, handle 4, lid 5, knob 6, foot 7. In Blender's node
+editor each piece is a node group: Body, Lip Rim, Band, Handles, Lid, Pedestal, Legs.
 """
 
 from __future__ import annotations
 
 from geocode.nodes import (
     Graph,
+    align_curve_tilt_to_axis,
     handle,
     leg_style,
     middle_expand_contract,
@@ -30,7 +31,6 @@ from geocode.nodes import (
     solidify,
     sweep,
 )
-from geocode.nodes.utils import align_curve_tilt_to_axis
 
 BODY, RIM, BAND, HANDLE, LID, KNOB, FOOT = 1, 2, 3, 4, 5, 6, 7
 BODY_RINGS = 40          # path points along the body's height
@@ -160,7 +160,7 @@ def _body_mesh(body: _Body):
     path = g.set_tilt(body.path(0.0, body.height, BODY_RINGS),
                       body.twist_at(g.spline_factor()))
     outer = sweep(g, curve=path, profile_curve=body.profile(),
-                  scale=body.radius(g.spline_factor()), fill_caps=True, part=BODY)["Mesh"]
+                  scale=body.radius(g.spline_factor()), fill_caps=True, label=BODY)["Mesh"]
     is_top_cap = (g.position().z > body.height - 1e-4) & (g.normal().z > 0.9)
     open_top = g.delete_faces(outer, is_top_cap)
     return solidify(g, mesh=open_top, thickness=p["wall_thickness"])["Mesh"]
@@ -197,18 +197,18 @@ def _handles(body: _Body):
                    reach=p["handle_reach"], peak=p["handle_peak"], inset=inset,
                    resolution=20)["Curve"]
     one = rail(g, curve=curve, profile_curve=_tube_profile(g, p["handle_roundness"]),
-               radius=p["handle_thickness"], fill_caps=True, part=HANDLE)["Mesh"]
+               radius=p["handle_thickness"], fill_caps=True, label=HANDLE)["Mesh"]
     copies = radial(g, geometry=one, count=p["handle_count"], radius=0.0)["Geometry"]
-    return g.switch(p["handle_count"] > 0, None, copies)
+    return g.when(p["handle_count"] > 0, copies)
 
 
-def _ring(body: _Body, shown, factor, size, part):
+def _ring(body: _Body, shown, factor, size, label):
     """When `shown`: a tube of radius `size` around the body's outline at `factor` of its
     height."""
     g = body.g
     ring = rail(g, curve=body.loop_at(factor), profile_curve=_tube_profile(g), radius=size,
-                fill_caps=False, part=part)["Mesh"]
-    return g.switch(shown, None, ring)
+                fill_caps=False, label=label)["Mesh"]
+    return g.when(shown, ring)
 
 
 def _lid(body: _Body):
@@ -224,13 +224,13 @@ def _lid(body: _Body):
     dome = 0.3 + 0.7 * g.sqrt(1.0 - u * u)
     scale = p["lip_width"] * LIP_OVERHANG * dome
     lid = sweep(g, curve=path, profile_curve=body.profile(), scale=scale, fill_caps=True,
-                part=LID)["Mesh"]
+                label=LID)["Mesh"]
     knob_path = body.path(top - OVERLAP, top + p["knob_height"], 8)
     knob = middle_expand_contract(
         g, curve=knob_path, profile_curve=_tube_profile(g, p["knob_roundness"]),
-        radius=p["knob_size"], amount=0.6, fill_caps=True, part=KNOB)["Mesh"]
-    with_knob = g.join([lid, g.switch(p["knob"], None, knob)])
-    return g.switch(p["lid"], None, with_knob)
+        radius=p["knob_size"], amount=0.6, fill_caps=True, label=KNOB)["Mesh"]
+    with_knob = g.join([lid, g.when(p["knob"], knob)])
+    return g.when(p["lid"], with_knob)
 
 
 def _pedestal(body: _Body):
@@ -243,7 +243,7 @@ def _pedestal(body: _Body):
     width = g.lerp(p["base_width"] * p["foot_width"], p["base_width"] * 0.8, t)
     waist = 1.0 - 0.2 * g.sin(t * 3.14159265)
     return sweep(g, curve=path, profile_curve=body.profile(), scale=width * waist,
-                 fill_caps=True, part=FOOT)["Mesh"]
+                 fill_caps=True, label=FOOT)["Mesh"]
 
 
 def _legs(body: _Body):
@@ -260,7 +260,7 @@ def _legs(body: _Body):
                                 resolution=8)["Curve"]
     one = leg_style(g, curve=curve, profile_curve=_tube_profile(g),
                     top_radius=p["leg_thickness"], bottom_radius=p["leg_thickness"] * 0.7,
-                    fill_caps=True, part=FOOT)["Mesh"]
+                    fill_caps=True, label=FOOT)["Mesh"]
     return radial(g, geometry=one, count=p["leg_count"], radius=0.0,
                   start_angle=0.785398)["Geometry"]
 
@@ -269,19 +269,19 @@ def build(g: Graph) -> None:
     with g.frame("Parameters"):
         p = _parameters(g)
     body = _Body(g, p)
-    with g.part("Body"):
+    with g.group("Body"):
         wall = _body_mesh(body)
-    with g.part("Lip Rim"):
+    with g.group("Lip Rim"):
         rim = _ring(body, p["lip_rim"], 1.0, p["lip_rim_size"], RIM)
-    with g.part("Band"):
+    with g.group("Band"):
         band = _ring(body, p["band"], p["band_height"], p["band_size"], BAND)
-    with g.part("Handles"):
+    with g.group("Handles"):
         handles = _handles(body)
-    with g.part("Lid"):
+    with g.group("Lid"):
         lid = _lid(body)
-    with g.part("Pedestal"):
+    with g.group("Pedestal"):
         pedestal = _pedestal(body)
-    with g.part("Legs"):
+    with g.group("Legs"):
         legs = _legs(body)
     with g.frame("Assembly"):
         # the foot lifts the rest by its height; the lowest point then rests on z = 0

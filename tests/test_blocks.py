@@ -171,7 +171,7 @@ def _radii_by_height(mesh):
 
 def test_rail_has_constant_radius_and_labels_its_part(blender):
     mesh = _evaluate(lambda g: nodes.rail(g, curve=_vertical_line(g), profile_curve=_round_profile(g),
-                                          radius=0.1, part=3)["Mesh"])
+                                          radius=0.1, label=3)["Mesh"])
     assert _radii_by_height(mesh) == pytest.approx([0.1, 0.1, 0.1], rel=3e-3)
     assert mesh.is_watertight  # caps filled
     assert (mesh.metadata["part"] == 3).all()
@@ -198,7 +198,7 @@ def test_middle_expand_contract(blender):
 def test_solidify_closes_an_open_surface_into_a_shell(blender):
     def build(g):
         tube = nodes.sweep(g, curve=_vertical_line(g), profile_curve=_round_profile(g),
-                           scale=1.0, fill_caps=False, part=5)["Mesh"]
+                           scale=1.0, fill_caps=False, label=5)["Mesh"]
         return nodes.solidify(g, mesh=tube, thickness=0.1)["Mesh"]
 
     mesh = _evaluate(build)

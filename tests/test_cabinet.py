@@ -52,8 +52,8 @@ def _body_half_width(mesh, label, z):
 
 def test_parameter_space(cabinet):
     kinds = [p.kind for p in cabinet.parameters]
-    assert len(cabinet.parameters) >= 25
-    assert kinds.count("float") >= 20 and len(kinds) - kinds.count("float") >= 8
+    assert len(cabinet.parameters) == 33
+    assert kinds.count("float") == 25 and len(kinds) - kinds.count("float") == 8
     for p in cabinet.parameters:
         assert p.description and p.min <= p.default <= p.max, p.name
 

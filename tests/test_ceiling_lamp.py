@@ -53,8 +53,8 @@ def _radii(points, axis_x) -> np.ndarray:
 
 def test_parameters_cover_the_lamp(lamp):
     kinds = [p.kind for p in lamp.parameters]
-    assert len(kinds) >= 19
-    assert len(kinds) - kinds.count("float") == 2 and kinds.count("float") >= 17
+    assert len(kinds) == 21
+    assert len(kinds) - kinds.count("float") == 2 and kinds.count("float") == 19
     names = {p.name for p in lamp.parameters}
     assert {"arm_count", "arm_length", "arm_curvature", "hub_radius", "shade_shape",
             "shade_size", "bulb_size", "rod_length", "canopy_radius"} <= names

@@ -1,11 +1,13 @@
 """The Geometry Nodes builder and the node-group decorator, evaluated in real Blender."""
 
+import importlib
+
 import numpy as np
 import pytest
 
 pytest.importorskip("bpy")
 
-from geocode.nodes import Evaluator, Graph, node_group  # noqa: E402
+from geocode.nodes import Evaluator, Graph, NodeGroup, node_group  # noqa: E402
 
 pytestmark = pytest.mark.blender
 
@@ -61,6 +63,40 @@ def test_switches_and_comparisons(blender):
     assert evaluator.mesh({"n": 2}).vertices[0] == pytest.approx([1, 4, 4])
 
 
+def test_when_is_the_switch_read_as_an_if(blender):
+    def build(g):
+        n = g.input("n", "int", default=0, min=0, max=2)
+        on = g.compare("GREATER_THAN", n, 0, data_type="INT")
+        return g.vec(g.when(on, 1.0, -1.0), g.when(on, 2.0), 0.0)
+
+    evaluator = _point_graph(build)
+    assert evaluator.mesh({"n": 1}).vertices[0] == pytest.approx([1, 2, 0])
+    assert evaluator.mesh({"n": 0}).vertices[0] == pytest.approx([-1, 0, 0])
+    switch = next(n for n in evaluator.object.modifiers[0].node_group.nodes
+                  if n.bl_idname == "GeometryNodeSwitch")
+    assert switch.inputs["True"].default_value == 1.0
+    assert switch.inputs["False"].default_value == -1.0
+
+
+def test_every_block_and_helper_is_exported():
+    import geocode.nodes as nodes
+
+    catalogue = ("attachment", "curves", "meshes", "profiles", "shells", "styles", "surfaces",
+                 "symmetry", "utils")
+    for chapter in catalogue:
+        module = importlib.import_module(f"geocode.nodes.{chapter}")
+        blocks = {name for name, value in vars(module).items()
+                  if isinstance(value, NodeGroup) and value.build.__module__ == module.__name__}
+        helpers = {name for name, value in vars(module).items()
+                   if callable(value) and getattr(value, "__module__", "") == module.__name__
+                   and not name.startswith("_")}
+        assert blocks | helpers <= set(nodes.__all__), (chapter, blocks | helpers)
+        assert all(nodes.BLOCKS[getattr(module, name).name] is getattr(module, name)
+                   for name in blocks)
+    assert all(hasattr(nodes, name) for name in nodes.__all__)
+
+
+
 def test_vector_math_and_separate(blender):
     def build(g):
         v = g.cross((1, 0, 0), (0, 1, 0))
@@ -100,10 +136,10 @@ def test_node_group_is_cached_and_rebuilt_after_reset(blender):
         offset(Graph.new("x"), bogus=1.0)
 
 
-def test_part_labels_land_on_faces(blender):
+def test_labels_land_on_faces(blender):
     g = Graph.new("labelled")
     cube = g.node("GeometryNodeMeshCube", {"Size": (1, 1, 1)})
-    g.output("Geometry", "geometry", g.label_part(cube, 7))
+    g.output("Geometry", "geometry", g.label(cube, 7))
     mesh = Evaluator(g.tree).mesh()
     assert len(mesh.faces) == 12
     assert (mesh.metadata["part"] == 7).all()
@@ -224,17 +260,17 @@ def test_geometry_helpers_ground_and_bound(blender):
     assert vertices[:, 2].max() == pytest.approx(1.0)
 
 
-# -- parts and frames -----------------------------------------------------------------------------
+# -- groups and frames ----------------------------------------------------------------------------
 
-def test_parts_capture_inputs_and_outputs_and_compute_the_same(blender):
+def test_groups_capture_inputs_and_outputs_and_compute_the_same(blender):
     def build(g):
         x = g.input("x", "float", default=3.0)
-        with g.part("Double"):
+        with g.group("Double"):
             doubled = g.named("doubled", 2 * x)
-            with g.part("Inner"):
-                inner = doubled + x       # x enters through both parts
-        with g.part("Sibling"):
-            sibling = inner * 10          # from one part's inner part into a sibling
+            with g.group("Inner"):
+                inner = doubled + x       # x enters through both groups
+        with g.group("Sibling"):
+            sibling = inner * 10          # from one group's inner group into a sibling
         with g.frame("Assembly"):
             return g.vec(doubled, sibling, x - 1)
 

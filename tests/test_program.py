@@ -34,7 +34,7 @@ def gate(g):
 
 def cube(g, size, x):
     mesh = g.node("GeometryNodeMeshCube", {"Size": g.vec(size, size, size)})
-    return g.label_part(g.transform(mesh, translation=g.vec(x, 0, 0)), 1)
+    return g.label(g.transform(mesh, translation=g.vec(x, 0, 0)), 1)
 
 
 def build(g: Graph):

@@ -1,4 +1,4 @@
-"""Vase and chair keep their meshes: vertex hashes of fixed parameter settings (defaults, the
+"""The programs keep their meshes: vertex hashes of fixed parameter settings (defaults, the
 all-min and all-max corners, seeded random draws) against a committed fixture.
 
 Record the fixture again only when a shape change is intended:
@@ -20,7 +20,7 @@ from geocode.program import Program  # noqa: E402
 pytestmark = pytest.mark.blender
 
 FIXTURE = Path(__file__).parent / "data" / "program_mesh_hashes.json"
-DOMAINS = ("vase", "chair")
+DOMAINS = ("vase", "chair", "table", "ceiling_lamp", "cabinet")
 SEEDS = range(12)
 
 

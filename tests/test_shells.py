@@ -16,7 +16,7 @@ def _cup(thickness=0.05, start=0.0, end=1.0):
     path = g.line((0, 0, start), (0, 0, end), count=9)
     profile = rectangle_fillet(g, width=2.0, height=2.0, roundness=1.0, resolution=3)["Curve"]
     mesh = shell(g, curve=path, profile_curve=profile, scale=1.0 - g.spline_factor() * 0.5,
-                 thickness=thickness, part=3)["Mesh"]
+                 thickness=thickness, label=3)["Mesh"]
     g.output("Geometry", "geometry", mesh)
     return Evaluator(g.tree).mesh()
 

@@ -1,5 +1,5 @@
 """The stool of docs/authoring.md is a real program: it builds, its recipe loads, every
-shape is valid and its tree is laid out in parts, and it renders."""
+shape is valid and its tree is laid out in groups, and it renders."""
 
 from pathlib import Path
 
@@ -41,7 +41,7 @@ def test_stool_builds_with_its_recipe_and_rules(stool):
     assert {p.name for p in recipe.parameters} == {p.name for p in stool.parameters}
 
 
-def test_every_stool_stands_in_one_piece_with_labelled_parts(stool):
+def test_every_stool_stands_in_one_piece_with_its_labels(stool):
     for values in _settings(stool):
         mesh = stool.evaluate(values)
         full = stool.check(values)
@@ -51,11 +51,11 @@ def test_every_stool_stands_in_one_piece_with_labelled_parts(stool):
         assert set(np.unique(mesh.metadata["part"])) == expected, values
 
 
-def test_the_stool_tree_reads_as_its_parts(stool):
+def test_the_stool_tree_reads_as_its_groups(stool):
     nodes = [n for n in stool.tree.nodes if n.bl_idname != "NodeFrame"]
-    parts = sorted(n.label for n in nodes if n.bl_idname == "GeometryNodeGroup" and n.label)
-    assert parts == ["Footrest", "Legs", "Seat"]
-    assert all(n.label in parts or (n.parent and n.parent.label) for n in nodes)
+    groups = sorted(n.label for n in nodes if n.bl_idname == "GeometryNodeGroup" and n.label)
+    assert groups == ["Footrest", "Legs", "Seat"]
+    assert all(n.label in groups or (n.parent and n.parent.label) for n in nodes)
 
 
 def test_the_stool_renders(stool, tmp_path):

@@ -37,8 +37,8 @@ def _assert_valid(mesh, values=None):
 
 def test_parameter_space(vase):
     kinds = [p.kind for p in vase.parameters]
-    assert len(vase.parameters) >= 39
-    assert kinds.count("float") >= 32 and len(kinds) - kinds.count("float") >= 7
+    assert len(vase.parameters) == 39
+    assert kinds.count("float") == 32 and len(kinds) - kinds.count("float") == 7
     assert all(p.description for p in vase.parameters)
 
 

@@ -8,15 +8,14 @@ parameter combination:
   seat's half-width (inside the seat at any roundness) down to the floor, the foot spread
   outwards by `leg_splay`;
 - footrest: a ring at `footrest_height` (share of the seat height) through the legs' axes.
-Part labels: seat 1, legs 2, footrest 3.
+Labels: seat 1, legs 2, footrest 3.
 """
 
 from __future__ import annotations
 
 import math
 
-from geocode.nodes import Graph, radial, rail, rectangle_fillet
-from geocode.nodes.parts import leg_mesh, seat
+from geocode.nodes import Graph, leg_mesh, radial, rail, rectangle_fillet, seat
 
 SEAT, LEGS, FOOTREST = 1, 2, 3
 LEG_REACH = 0.6   # legs start at this share of the seat's half-width from the axis
@@ -44,7 +43,7 @@ def _legs(g: Graph, p: dict, inside):
     x = p["seat_width"] * (0.5 * LEG_REACH)
     one = leg_mesh(g, top=g.vec(x, 0.0, inside), bottom=g.vec(x + p["leg_splay"], 0.0, 0.0),
                    curvature=0.0, top_radius=p["leg_thickness"],
-                   bottom_radius=p["leg_thickness"], roundness=1.0, part=LEGS)["Mesh"]
+                   bottom_radius=p["leg_thickness"], roundness=1.0, label=LEGS)["Mesh"]
     return radial(g, geometry=one, count=p["leg_count"], start_angle=math.pi / 4)["Geometry"]
 
 
@@ -60,22 +59,22 @@ def _footrest(g: Graph, p: dict, inside):
     ring = g.transform(circle, translation=g.vec(0.0, 0.0, height))
     tube = rectangle_fillet(g, width=2.0, height=2.0, roundness=1.0, resolution=2)["Curve"]
     mesh = rail(g, curve=ring, profile_curve=tube, radius=p["leg_thickness"], fill_caps=False,
-                part=FOOTREST)["Mesh"]
-    return g.switch(p["footrest"], None, mesh)
+                label=FOOTREST)["Mesh"]
+    return g.when(p["footrest"], mesh)
 
 
 def build(g: Graph) -> None:
     with g.frame("Parameters"):
         p = _parameters(g)
-    with g.part("Seat"):
+    with g.group("Seat"):
         top = seat(g, width=p["seat_width"], depth=p["seat_width"],
                    roundness=p["seat_roundness"], top=p["seat_height"],
-                   thickness=p["seat_thickness"], bevel=0.1, part=SEAT)["Mesh"]
+                   thickness=p["seat_thickness"], bevel=0.1, label=SEAT)["Mesh"]
         # the legs start halfway into the slab, so they stay joined to it at any thickness
         inside = g.named("inside", p["seat_height"] - p["seat_thickness"] * 0.5)
-    with g.part("Legs"):
+    with g.group("Legs"):
         legs = _legs(g, p, inside)
-    with g.part("Footrest"):
+    with g.group("Footrest"):
         footrest = _footrest(g, p, inside)
     with g.frame("Assembly"):
         g.output("Geometry", "geometry", g.ground(g.join([top, legs, footrest])))

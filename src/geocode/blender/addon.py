@@ -21,12 +21,12 @@ SOURCE = Path(__file__).with_name("extension") / "__init__.py"
 # catalogue module -> the Add menu's category (the paper's names for them)
 CATEGORIES = {"curves": "Curves", "profiles": "Profiles", "styles": "Styles", "shells": "Styles",
               "surfaces": "Surfaces", "attachment": "Sampling", "symmetry": "Symmetry",
-              "parts": "Meshes", "utils": "Utilities"}
+              "meshes": "Meshes", "utils": "Utilities"}
 MANIFEST = """schema_version = "1.0.0"
 id = "{id}"
 version = "{version}"
 name = "GeoCode building blocks"
-tagline = "Curves, profiles, styles, sampling, symmetry and ready-made parts for shape programs"
+tagline = "Curves, profiles, styles, sampling, symmetry and ready-made meshes for shape programs"
 maintainer = "geocode developers"
 type = "add-on"
 tags = ["Geometry Nodes", "Node"]

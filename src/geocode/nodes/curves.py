@@ -22,9 +22,7 @@ _UP = (0.0, 1.0, 0.0)  # the normal of the XZ plane in which planar curves bend
 
 def _poly(g: Graph, curve, resolution):
     """Evenly spaced poly curve with `resolution` segments."""
-    return g.node("GeometryNodeResampleCurve", {
-        "Curve": curve, "Mode": "Count", "Count": g.int_math("ADD", resolution, 1),
-    }).out
+    return g.resample(curve, g.int_math("ADD", resolution, 1))
 
 
 @node_group("CurveBezierSegment")

@@ -26,7 +26,6 @@ SOCKET_TYPES = {
     "float": "NodeSocketFloat",
     "vector": "NodeSocketVector",
     "geometry": "NodeSocketGeometry",
-    "rotation": "NodeSocketRotation",
 }
 
 # socket.type -> the data-type enum that Switch/Index Switch/Compare nodes use
@@ -39,7 +38,7 @@ _DATA_TYPES = {
     "ROTATION": "ROTATION",
 }
 
-# socket.type -> the interface socket type that carries it into or out of a part
+# socket.type -> the interface socket type that carries it into or out of a group
 _INTERFACE_TYPES = {
     "VALUE": "NodeSocketFloat",
     "INT": "NodeSocketInt",
@@ -49,7 +48,9 @@ _INTERFACE_TYPES = {
     "ROTATION": "NodeSocketRotation",
 }
 
-PART_ATTRIBUTE = "part"
+# the face attribute that holds the segmentation label; its stored name "part" is what the
+# exported datasets (.parts.npy), `mesh.metadata["part"]` and their readers know
+LABEL_ATTRIBUTE = "part"
 
 
 class Socket:
@@ -77,7 +78,7 @@ class Socket:
 
     def __bool__(self) -> bool:
         raise TypeError("a socket has no truth value while the graph is built (it varies "
-                        "per evaluation): use g.switch(...), & | ~, or g.min/g.max")
+                        "per evaluation): use g.when(...), & | ~, or g.min/g.max")
 
     __hash__ = object.__hash__  # hashable although the comparisons below return sockets
 
@@ -161,12 +162,12 @@ def as_socket(value: Value) -> bpy.types.NodeSocket | None:
     return None
 
 
-def data_type_of(*values: Value, default: str = "FLOAT") -> str:
+def data_type_of(*values: Value) -> str:
     """The Switch/Compare data type that fits the given operands (first linked one wins)."""
     for value in values:
         socket = as_socket(value)
         if socket is not None:
-            return _DATA_TYPES.get(socket.type, default)
+            return _DATA_TYPES.get(socket.type, "FLOAT")
     for value in values:
         if isinstance(value, bool):
             return "BOOLEAN"
@@ -174,7 +175,7 @@ def data_type_of(*values: Value, default: str = "FLOAT") -> str:
             return "VECTOR"
         if isinstance(value, int):
             return "INT"
-    return default
+    return "FLOAT"
 
 
 def is_vector(value: Value) -> bool:
@@ -193,7 +194,7 @@ def _as_vector_constant(value: Value) -> Value:
 
 
 class _Level:
-    """A tree being built: the program's own, or a part's (a group node in `parent`)."""
+    """A tree being built: the program's own, or a group's (a group node in `parent`)."""
 
     def __init__(self, tree, parent: _Level | None = None, node=None):
         self.tree, self.parent, self.node = tree, parent, node
@@ -209,9 +210,10 @@ class Parameters(dict):
         super().__init__()
         self.graph = graph
 
-    def add(self, name: str, kind: str, default: Value, low: float, high: float,
+    def add(self, name: str, kind: str, default: Value, min: float, max: float,
             description: str) -> Socket:
-        self[name] = self.graph.input(name, kind, default=default, min=low, max=high,
+        """Declare a parameter: `Graph.input`'s arguments, in its order."""
+        self[name] = self.graph.input(name, kind, default=default, min=min, max=max,
                                       description=description)
         return self[name]
 
@@ -219,9 +221,9 @@ class Parameters(dict):
 class Graph:
     """Builder over one geometry node tree.
 
-    `with g.part("Handles"):` builds what follows inside a named node group; a value from
+    `with g.group("Handles"):` builds what follows inside a named node group; a value from
     outside becomes an input of that group, and a value used outside after the block
-    becomes an output, so a program reads the same with or without parts. `with
+    becomes an output, so a program reads the same with or without groups. `with
     g.frame("Assembly"):` puts the nodes that follow into a labelled frame.
     """
 
@@ -238,13 +240,13 @@ class Graph:
 
     @property
     def tree(self) -> bpy.types.GeometryNodeTree:
-        """The tree new nodes go into: the innermost open part's, else the program's."""
+        """The tree new nodes go into: the innermost open group's, else the program's."""
         return self._open[-1].tree
 
-    # -- parts and frames ---------------------------------------------------------------------
+    # -- groups and frames --------------------------------------------------------------------
 
     @contextmanager
-    def part(self, name: str) -> Iterator[None]:
+    def group(self, name: str) -> Iterator[None]:
         """Build the block's nodes inside a new node group, `name` in the node editor."""
         outer = self._open[-1]
         tree = bpy.data.node_groups.new(f"{self.root.tree.name}: {name}", "GeometryNodeTree")
@@ -271,7 +273,7 @@ class Graph:
             level.frame = previous
 
     def named(self, name: str, value: Socket) -> Socket:
-        """Name `value`: the input or output that carries it into or out of a part is called
+        """Name `value`: the input or output that carries it into or out of a group is called
         `name`, and so is its node when that has one output."""
         self._names[value.bl.as_pointer()] = name
         node = value.bl.node
@@ -288,8 +290,8 @@ class Graph:
 
     def _bring(self, socket, tree) -> bpy.types.NodeSocket:
         """A socket of `tree` that carries the value of `socket`, from whichever tree of
-        this graph it lives in: through the outputs of the parts it is inside of, then the
-        inputs of the parts `tree` is inside of."""
+        this graph it lives in: through the outputs of the groups it is inside of, then the
+        inputs of the groups `tree` is inside of."""
         source = socket.id_data
         if source == tree:
             return socket
@@ -320,7 +322,7 @@ class Graph:
     def _export(self, level: _Level, inner) -> bpy.types.NodeSocket:
         key = inner.as_pointer()
         if key not in level.exported:
-            # a part's geometry is called after the part unless it was given a name
+            # a group's geometry is called after the group unless it was given a name
             name = self._names.get(key) or (level.node.label if inner.type == "GEOMETRY"
                                             else self._crossing_name(inner))
             item = level.tree.interface.new_socket(name, in_out="OUTPUT",
@@ -378,7 +380,7 @@ class Graph:
 
     # -- group interface ----------------------------------------------------------------------
 
-    def input(self, name: str, kind: str, default: Value = None, min: float | None = None,
+    def input(self, name: str, kind: str, *, default: Value = None, min: float | None = None,
               max: float | None = None, description: str = "") -> Socket:
         """Expose a group input and return its socket. kind: bool|int|float|vector|geometry."""
         item = self.tree.interface.new_socket(name, in_out="INPUT",
@@ -455,7 +457,7 @@ class Graph:
         return self.map_range(t, 0.0, 1.0, a, b, clamp=False)
 
     def map_range(self, value: Value, from_min: Value, from_max: Value, to_min: Value,
-                  to_max: Value, interpolation: str = "LINEAR",
+                  to_max: Value, *, interpolation: str = "LINEAR",
                   clamp: bool = True) -> Socket:
         return self.node("ShaderNodeMapRange", {
             "Value": value, "From Min": from_min, "From Max": from_max,
@@ -499,7 +501,7 @@ class Graph:
 
     # -- logic ----------------------------------------------------------------------------------
 
-    def compare(self, operation: str, a: Value, b: Value,
+    def compare(self, operation: str, a: Value, b: Value, *,
                 data_type: str | None = None) -> Socket:
         """operation: LESS_THAN, LESS_EQUAL, GREATER_THAN, GREATER_EQUAL, EQUAL, NOT_EQUAL."""
         if data_type is None and (is_vector(a) or is_vector(b)):
@@ -511,14 +513,20 @@ class Graph:
     def boolean(self, operation: str, *operands: Value) -> Socket:
         return self.node("FunctionNodeBooleanMath", operands, operation=operation).out
 
-    def switch(self, condition: Value, if_false: Value, if_true: Value,
+    def when(self, condition: Value, then: Value, otherwise: Value = None) -> Socket:
+        """`then` where `condition` holds, else `otherwise` (None: nothing, e.g. no geometry):
+        the Switch node of `switch`, its values in the order of an if."""
+        return self.switch(condition, otherwise, then)
+
+    def switch(self, condition: Value, if_false: Value, if_true: Value, *,
                data_type: str | None = None) -> Socket:
+        """The Switch node, its values in the node's order (False, then True)."""
         data_type = data_type or data_type_of(if_false, if_true)
         return self.node("GeometryNodeSwitch", {
             "Switch": condition, "False": if_false, "True": if_true,
         }, input_type=data_type)["Output"]
 
-    def index_switch(self, index: Value, items: Sequence[Value],
+    def index_switch(self, index: Value, items: Sequence[Value], *,
                      data_type: str | None = None) -> Socket:
         """Output items[index]; an index out of range gives the type's zero value."""
         node = self.node("GeometryNodeIndexSwitch", data_type=data_type or data_type_of(*items))
@@ -550,7 +558,7 @@ class Graph:
 
     # -- curves -----------------------------------------------------------------------------
 
-    def line(self, start: Value, end: Value, count: Value = None) -> Socket:
+    def line(self, start: Value, end: Value, *, count: Value = None) -> Socket:
         """A straight curve from `start` to `end`; with `count`, resampled to that many
         evenly spaced points (else its two end points)."""
         line = self.node("GeometryNodeCurvePrimitiveLine", {"Start": start, "End": end}).out
@@ -574,7 +582,7 @@ class Graph:
             self.link(geometry, node.input("Geometry"))
         return node.out
 
-    def transform(self, geometry: Value, translation: Value = None, rotation: Value = None,
+    def transform(self, geometry: Value, *, translation: Value = None, rotation: Value = None,
                   scale: Value = None) -> Socket:
         """Transform Geometry; rotation is an Euler vector (radians) or a rotation socket."""
         if rotation is not None and not _is_rotation(rotation):
@@ -587,7 +595,7 @@ class Graph:
     def euler_to_rotation(self, euler: Value) -> Socket:
         return self.node("FunctionNodeEulerToRotation", {"Euler": euler}).out
 
-    def set_position(self, geometry: Value, position: Value = None,
+    def set_position(self, geometry: Value, *, position: Value = None,
                      offset: Value = None) -> Socket:
         return self.node("GeometryNodeSetPosition", {
             "Geometry": geometry, "Position": position, "Offset": offset}).out
@@ -602,21 +610,22 @@ class Graph:
         """Bounding Box: outputs `Bounding Box` (a mesh), `Min` and `Max` (vectors)."""
         return self.node("GeometryNodeBoundBox", {"Geometry": geometry})
 
-    def instance_on_points(self, points: Value, instance: Value, realize: bool = True,
-                           **inputs: Value) -> Socket:
-        """A copy of `instance` on every point (extra inputs by name: Rotation, Scale, ...);
-        realized into plain geometry unless `realize` is false."""
-        copies = self.node("GeometryNodeInstanceOnPoints",
-                           {"Points": points, "Instance": instance, **inputs}).out
-        return self.realize(copies) if realize else copies
+    def instance_on_points(self, points: Value, instance: Value, *, rotation: Value = None,
+                           scale: Value = None) -> Socket:
+        """A copy of `instance` on every point, turned by `rotation` and sized by `scale`
+        (fields), realized into plain geometry."""
+        copies = self.node("GeometryNodeInstanceOnPoints", {
+            "Points": points, "Instance": instance, "Rotation": rotation, "Scale": scale,
+        }).out
+        return self.realize(copies)
 
     def realize(self, geometry: Value) -> Socket:
         return self.node("GeometryNodeRealizeInstances", {"Geometry": geometry}).out
 
-    def label_part(self, geometry: Value, label: Value) -> Socket:
-        """Store the integer segmentation label `part` on every face."""
+    def label(self, geometry: Value, label: Value) -> Socket:
+        """Store the integer segmentation label `label` on every face (LABEL_ATTRIBUTE)."""
         return self.node("GeometryNodeStoreNamedAttribute", {
-            "Geometry": geometry, "Name": PART_ATTRIBUTE, "Value": label,
+            "Geometry": geometry, "Name": LABEL_ATTRIBUTE, "Value": label,
         }, data_type="INT", domain="FACE").out
 
     def ground(self, geometry: Value) -> Socket:
@@ -627,7 +636,7 @@ class Graph:
     # -- layout -----------------------------------------------------------------------------
 
     def arrange(self) -> None:
-        """Lay out the program's tree and its parts for Blender's node editor."""
+        """Lay out the program's tree and its groups for Blender's node editor."""
         for level in self._levels.values():
             arrange(level.tree)
 

@@ -13,7 +13,7 @@ import bpy
 import numpy as np
 import trimesh
 
-from geocode.nodes.graph import PART_ATTRIBUTE
+from geocode.nodes.graph import LABEL_ATTRIBUTE
 
 
 class Evaluator:
@@ -79,7 +79,7 @@ def _triangles(data: bpy.types.Mesh) -> trimesh.Trimesh:
 
 
 def _face_parts(data: bpy.types.Mesh) -> np.ndarray:
-    attribute = data.attributes.get(PART_ATTRIBUTE)
+    attribute = data.attributes.get(LABEL_ATTRIBUTE)
     labels = np.zeros(len(data.polygons), dtype=np.int64)
     if attribute is not None and attribute.domain == "FACE" and len(labels):
         buffer = np.empty(len(labels), dtype=np.int32)

@@ -25,9 +25,9 @@ def shell(g: Graph) -> None:
     profile = g.input("Profile Curve", "geometry")
     scale = g.input("Scale", "float", default=1.0)
     thickness = g.input("Thickness", "float", default=0.01, min=0.0)
-    part = g.input("Part", "int", default=0, min=0)
+    label = g.input("Label", "int", default=0, min=0)
     closed = sweep(g, curve=curve, profile_curve=profile, scale=scale, fill_caps=True,
-                   part=part)["Mesh"]
+                   label=label)["Mesh"]
     start, end = (sample_curve(g, curve=curve, factor=f)["Position"] for f in (0.0, 1.0))
     # a face's position is its centre: the start cap is the n-gon nearer the path's start
     corners = g.node("GeometryNodeInputMeshFaceNeighbors")["Vertex Count"]

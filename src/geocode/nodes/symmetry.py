@@ -21,7 +21,7 @@ def radial(g: Graph) -> None:
     position = g.vec(radius * g.cos(angle), radius * g.sin(angle), 0.0)
     points = g.node("GeometryNodePoints", {"Count": count, "Position": position})
     copies = g.instance_on_points(points, geometry,
-                                  Rotation=g.euler_to_rotation(g.vec(0.0, 0.0, angle)))
+                                  rotation=g.euler_to_rotation(g.vec(0.0, 0.0, angle)))
     g.output("Geometry", "geometry", copies)
 
 

@@ -1,4 +1,4 @@
-"""The frame curves, furniture styles and ready-made part triplets, evaluated in Blender."""
+"""The frame curves, furniture styles and ready-made mesh triplets, evaluated in Blender."""
 
 import math
 
@@ -7,17 +7,24 @@ import pytest
 
 pytest.importorskip("bpy")
 
-from geocode.nodes import Evaluator, Graph, curves, parts, sample_curve_array, styles  # noqa: E402
-from geocode.nodes.profiles import rectangle_fillet  # noqa: E402
+from geocode.nodes import (  # noqa: E402
+    Evaluator,
+    Graph,
+    curves,
+    meshes,
+    rectangle_fillet,
+    sample_curve_array,
+    styles,
+)
 
 pytestmark = pytest.mark.blender
 
-PART = 7
+LABEL = 7
 BLOCKS = [curves.fixed_top, curves.fixed_bottom, curves.fixed_middle, styles.seat_frame,
           styles.cushion_style, styles.aligned_bevel_xy, styles.bezier_segment_style,
-          parts.seat, parts.cushion_mesh, parts.top_rail, parts.cross_rail, parts.straight_frame,
-          parts.frame_fixed_bottom, parts.leg_mesh, parts.quadratic_polar_frame,
-          parts.quadratic_cartesian_aligned_xy_frame, parts.quadratic_cartesian_mesh]
+          meshes.seat, meshes.cushion_mesh, meshes.top_rail, meshes.cross_rail, meshes.straight_frame,
+          meshes.frame_fixed_bottom, meshes.leg_mesh, meshes.quadratic_polar_frame,
+          meshes.quadratic_cartesian_aligned_xy_frame, meshes.quadratic_cartesian_mesh]
 
 
 def _mesh(build, output="Mesh"):
@@ -101,15 +108,15 @@ def _half_width_at(mesh, z, tol=1e-3):
 def test_bezier_segment_style_scales_from_start_to_end(blender):
     mesh = _mesh(lambda g: styles.bezier_segment_style(
         g, curve=_vertical_path(g), profile_curve=_square(g, 2.0), start=0.1,
-        start_handle=0.1, end_handle=0.3, end=0.3, part=PART))
+        start_handle=0.1, end_handle=0.3, end=0.3, label=LABEL))
     assert _half_width_at(mesh, 0.0) == pytest.approx(0.1, abs=1e-4)
     assert _half_width_at(mesh, 1.0) == pytest.approx(0.3, abs=1e-4)
-    assert set(mesh.metadata["part"]) == {PART}
+    assert set(mesh.metadata["part"]) == {LABEL}
 
 
 def test_seat_frame_rounds_both_ends_by_the_bevel(blender):
     mesh = _mesh(lambda g: styles.seat_frame(g, curve=_vertical_path(g),
-                                             profile_curve=_square(g), bevel=0.2, part=PART))
+                                             profile_curve=_square(g), bevel=0.2, label=LABEL))
     assert _half_width_at(mesh, 0.5) == pytest.approx(0.5, abs=1e-4)
     assert _half_width_at(mesh, 0.0) == pytest.approx(0.4, abs=1e-4)
     assert _half_width_at(mesh, 1.0) == pytest.approx(0.4, abs=1e-4)
@@ -118,7 +125,7 @@ def test_seat_frame_rounds_both_ends_by_the_bevel(blender):
 def test_cushion_style_puffs_more_when_fuller(blender):
     def widths(fill):
         mesh = _mesh(lambda g: styles.cushion_style(g, curve=_vertical_path(g),
-                                              profile_curve=_square(g), fill=fill, part=PART))
+                                              profile_curve=_square(g), fill=fill, label=LABEL))
         return [_half_width_at(mesh, z) for z in (0.0, 0.75, 1.0)]
 
     dome, full = widths(0.0), widths(1.0)
@@ -132,7 +139,7 @@ def test_aligned_bevel_xy_pins_the_profile_to_the_axis_and_bevels_the_end(blende
         def build(g):
             profile = rectangle_fillet(g, width=0.2, height=0.04, resolution=2)["Curve"]
             return styles.aligned_bevel_xy(g, curve=_vertical_path(g), profile_curve=profile,
-                                           axis=axis, bevel=bevel, part=PART)
+                                           axis=axis, bevel=bevel, label=LABEL)
         return _mesh(build)
 
     extent = lambda m: m.vertices.max(0) - m.vertices.min(0)  # noqa: E731
@@ -148,8 +155,8 @@ def test_aligned_bevel_xy_pins_the_profile_to_the_axis_and_bevels_the_end(blende
 def test_seat_corner_moves_inwards_with_roundness(blender):
     def seat(roundness):
         g = Graph.new("probe")
-        block = parts.seat(g, width=0.6, depth=0.4, roundness=roundness, top=0.5,
-                           thickness=0.05, bevel=0.0, part=PART)
+        block = meshes.seat(g, width=0.6, depth=0.4, roundness=roundness, top=0.5,
+                           thickness=0.05, bevel=0.0, label=LABEL)
         corner = g.node("GeometryNodeMeshLine", {"Count": 1,
                                                  "Start Location": block["Corner"]})
         g.output("Geometry", "geometry", g.join([block["Mesh"], corner]))
@@ -168,17 +175,17 @@ def test_seat_corner_moves_inwards_with_roundness(blender):
 
 
 def test_cushion_mesh_sits_on_its_bottom(blender):
-    mesh = _mesh(lambda g: parts.cushion_mesh(g, width=0.5, depth=0.4, roundness=0.3, bottom=0.4,
-                                         thickness=0.06, fill=0.5, part=PART))
+    mesh = _mesh(lambda g: meshes.cushion_mesh(g, width=0.5, depth=0.4, roundness=0.3, bottom=0.4,
+                                         thickness=0.06, fill=0.5, label=LABEL))
     assert mesh.bounds[:, 2] == pytest.approx([0.4, 0.46], abs=1e-5)
     assert mesh.bounds[1, :2] == pytest.approx([0.25, 0.2], abs=1e-4)
-    assert set(mesh.metadata["part"]) == {PART}
+    assert set(mesh.metadata["part"]) == {LABEL}
 
 
 def test_leg_reaches_from_top_to_bottom_and_tapers(blender):
-    mesh = _mesh(lambda g: parts.leg_mesh(g, top=(0.2, 0.2, 0.5), bottom=(0.25, 0.25, 0.0),
+    mesh = _mesh(lambda g: meshes.leg_mesh(g, top=(0.2, 0.2, 0.5), bottom=(0.25, 0.25, 0.0),
                                      curvature=1.0, top_radius=0.03, bottom_radius=0.015,
-                                     part=PART))
+                                     label=LABEL))
     z = mesh.vertices[:, 2]
     # the foot's cap is square to the slanted path: its rim dips by up to radius x slope
     assert z.max() == pytest.approx(0.5, abs=2e-3) and z.min() == pytest.approx(0.0, abs=0.01)
@@ -194,12 +201,12 @@ def test_cross_rails_span_both_sides_and_follow_the_frame(blender):
                                                           "End": (0.2, 0.4, 1.0)}).out
         points = sample_curve_array(g, curve=frame, count=3, start_margin=0.2,
                                     end_margin=0.2)["Points"]
-        return parts.cross_rail(g, points=points, half_length=0.2, thickness_y=0.02,
-                                thickness_z=0.06, part=PART)
+        return meshes.cross_rail(g, points=points, half_length=0.2, thickness_y=0.02,
+                                thickness_z=0.06, label=LABEL)
 
     mesh = _mesh(build)
     assert mesh.bounds[:, 0] == pytest.approx([-0.2, 0.2], abs=1e-5)
-    assert set(mesh.metadata["part"]) == {PART}
+    assert set(mesh.metadata["part"]) == {LABEL}
     # three rails, centred on the frame at 20%, 50% and 80% of its length
     for fraction in (0.2, 0.5, 0.8):
         y, z = 0.1 + 0.3 * fraction, fraction
@@ -214,9 +221,9 @@ def test_cross_rails_span_both_sides_and_follow_the_frame(blender):
 
 
 def test_top_rail_spans_the_frames_at_its_centre(blender):
-    mesh = _mesh(lambda g: parts.top_rail(g, center=(0.2, 0.3, 0.9), tangent=(0, 0, 1),
+    mesh = _mesh(lambda g: meshes.top_rail(g, center=(0.2, 0.3, 0.9), tangent=(0, 0, 1),
                                           half_length=0.25, size=0.1, depth=0.03, fill=0.0,
-                                          part=PART))
+                                          label=LABEL))
     assert mesh.bounds.ravel() == pytest.approx([-0.25, 0.285, 0.85, 0.25, 0.315, 0.95],
                                                 abs=1e-4)
 
@@ -224,30 +231,30 @@ def test_top_rail_spans_the_frames_at_its_centre(blender):
 @pytest.mark.parametrize("block", ["straight", "cartesian", "polar", "fixed_bottom"])
 def test_frames_run_between_their_ends(blender, block):
     start, end = (0.1, 0.0, 0.2), (0.1, -0.3, 0.8)
-    common = dict(width=0.04, depth=0.02, part=PART)
+    common = dict(width=0.04, depth=0.02, label=LABEL)
     makers = {
-        "straight": lambda g: parts.straight_frame(g, start=start, end=end, **common),
-        "cartesian": lambda g: parts.quadratic_cartesian_aligned_xy_frame(
+        "straight": lambda g: meshes.straight_frame(g, start=start, end=end, **common),
+        "cartesian": lambda g: meshes.quadratic_cartesian_aligned_xy_frame(
             g, start=start, end=end, offset=(0, 0.1, 0), **common),
-        "polar": lambda g: parts.quadratic_polar_frame(g, start=start, end=end, angle=0.3,
+        "polar": lambda g: meshes.quadratic_polar_frame(g, start=start, end=end, angle=0.3,
                                                        distance=0.1, **common),
-        "fixed_bottom": lambda g: parts.frame_fixed_bottom(g, bottom=start, top=end,
+        "fixed_bottom": lambda g: meshes.frame_fixed_bottom(g, bottom=start, top=end,
                                                            curvature=1.0, **common),
     }
     path = _curve(makers[block])
     assert path[0] == pytest.approx(start, abs=1e-5)
     assert path[-1] == pytest.approx(end, abs=1e-5)
     mesh = _mesh(makers[block])
-    assert set(mesh.metadata["part"]) == {PART}
+    assert set(mesh.metadata["part"]) == {LABEL}
     lo, hi = mesh.bounds
     assert np.all(lo <= np.minimum(start, end) + 1e-6) and np.all(hi >= np.maximum(start, end)
                                                                    - 1e-6)
 
 
 def test_quadratic_cartesian_mesh_is_a_tube_between_its_ends(blender):
-    mesh = _mesh(lambda g: parts.quadratic_cartesian_mesh(g, start=(0, 0, 0.1), end=(0.3, 0, 0),
+    mesh = _mesh(lambda g: meshes.quadratic_cartesian_mesh(g, start=(0, 0, 0.1), end=(0.3, 0, 0),
                                                           offset=(0.15, 0, 0), radius=0.02,
-                                                          part=PART))
+                                                          label=LABEL))
     assert mesh.bounds[0, 1] == pytest.approx(-0.02, abs=1e-3)
     assert mesh.bounds[1, 0] == pytest.approx(0.32, abs=0.01)
-    assert set(mesh.metadata["part"]) == {PART}
+    assert set(mesh.metadata["part"]) == {LABEL}

@@ -1,9 +1,9 @@
 """Meshes: ready-made triplets (path curve + RectangleFillet profile + style -> mesh), the
-parts that furniture programs are assembled from (docs/paper-numbers.md#building-blocks, "meshes").
+pieces that furniture programs are assembled from (docs/paper-numbers.md#building-blocks, "meshes").
 
 Profiles are given in absolute sizes (`Width` along the profile's X, `Depth` along its Y),
-so styles scale by 1 at rest. Every block labels its faces with `Part` and, where other
-parts attach to it, also returns its path `Curve` (sample it for attachment points).
+so styles scale by 1 at rest. Every block labels its faces with `Label` and, where other
+meshes attach to it, also returns its path `Curve` (sample it for attachment points).
 """
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ from geocode.nodes.styles import (
 )
 from geocode.nodes.utils import align_curve_tilt_to_axis
 
-# fillet points per profile corner: small parts need few, the seat is seen up close
+# fillet points per profile corner: small meshes need few, the seat is seen up close
 THIN_RESOLUTION = 2
 SEAT_RESOLUTION = 6
 # the rectangle's corner moves in by r (1 - 1/sqrt 2) when rounded with radius r
@@ -49,15 +49,15 @@ def _frame_inputs(g: Graph):
     roundness = g.input("Roundness", "float", default=0.0, min=0.0, max=1.0)
     bevel = g.input("Bevel", "float", default=0.0, min=0.0, max=0.9)
     axis = g.input("Axis", "vector", default=(1, 0, 0))
-    part = g.input("Part", "int", default=0, min=0)
-    return width, depth, roundness, bevel, axis, part
+    label = g.input("Label", "int", default=0, min=0)
+    return width, depth, roundness, bevel, axis, label
 
 
 def _frame_mesh(g: Graph, curve, inputs):
-    width, depth, roundness, bevel, axis, part = inputs
+    width, depth, roundness, bevel, axis, label = inputs
     return aligned_bevel_xy(g, curve=curve, profile_curve=_profile(g, width, depth, roundness),
                             axis=axis, radius=1.0, bevel=bevel, fill_caps=True,
-                            part=part)["Mesh"]
+                            label=label)["Mesh"]
 
 
 @node_group("MeshSeat")
@@ -74,11 +74,11 @@ def seat(g: Graph) -> None:
     top = g.input("Top", "float", default=0.45)
     thickness = g.input("Thickness", "float", default=0.05, min=0.0)
     bevel = g.input("Bevel", "float", default=0.05, min=0.0, max=0.5)
-    part = g.input("Part", "int", default=0, min=0)
+    label = g.input("Label", "int", default=0, min=0)
     path = _vertical_path(g, top - thickness, top, 7)
     profile = _profile(g, width, depth, roundness, SEAT_RESOLUTION)
     mesh = seat_frame(g, curve=path, profile_curve=profile, bevel=bevel, fill_caps=True,
-                      part=part)["Mesh"]
+                      label=label)["Mesh"]
     g.output("Mesh", "geometry", mesh)
     inset = corner_radius(g, roundness, width, depth) * _CORNER_INSET
     g.output("Corner", "vector", g.vec(width * 0.5 - inset, depth * 0.5 - inset, 0.0))
@@ -94,11 +94,11 @@ def cushion_mesh(g: Graph) -> None:
     bottom = g.input("Bottom", "float", default=0.45)
     thickness = g.input("Thickness", "float", default=0.05, min=0.0)
     fill = g.input("Fill", "float", default=0.5, min=0.0, max=1.0)
-    part = g.input("Part", "int", default=0, min=0)
+    label = g.input("Label", "int", default=0, min=0)
     path = _vertical_path(g, bottom, bottom + thickness, 8)
     profile = _profile(g, width, depth, roundness, SEAT_RESOLUTION)
     mesh = cushion_style(g, curve=path, profile_curve=profile, fill=fill, fill_caps=True,
-                         part=part)["Mesh"]
+                         label=label)["Mesh"]
     g.output("Mesh", "geometry", mesh)
 
 
@@ -107,19 +107,19 @@ def leg_mesh(g: Graph) -> None:
     """A leg hanging from `Top` to `Bottom` on a CurveFixedTop (`Curvature` 1: vertical
     under the seat, bending out towards the foot), StyleLeg from `Top Radius` to
     `Bottom Radius`, a square-to-round profile (`Roundness`) with its X on world X.
-    `Curve` is its axis, top to bottom, for parts attached to the leg (stretchers)."""
+    `Curve` is its axis, top to bottom, for meshes attached to the leg (stretchers)."""
     top = g.input("Top", "vector", default=(0, 0, 0.45))
     bottom = g.input("Bottom", "vector", default=(0, 0, 0))
     curvature = g.input("Curvature", "float", default=1.0, min=0.0, max=1.0)
     top_radius = g.input("Top Radius", "float", default=0.025, min=0.0)
     bottom_radius = g.input("Bottom Radius", "float", default=0.02, min=0.0)
     roundness = g.input("Roundness", "float", default=0.0, min=0.0, max=1.0)
-    part = g.input("Part", "int", default=0, min=0)
+    label = g.input("Label", "int", default=0, min=0)
     curve = fixed_top(g, top=top, bottom=bottom, curvature=curvature, resolution=8)["Curve"]
     aligned = align_curve_tilt_to_axis(g, curve=curve, axis=(1.0, 0.0, 0.0))["Curve"]
     mesh = leg_style(g, curve=aligned, profile_curve=_profile(g, 2.0, 2.0, roundness),
                      top_radius=top_radius, bottom_radius=bottom_radius, fill_caps=True,
-                     part=part)["Mesh"]
+                     label=label)["Mesh"]
     g.output("Mesh", "geometry", mesh)
     g.output("Curve", "geometry", aligned)
 
@@ -189,11 +189,11 @@ def quadratic_cartesian_mesh(g: Graph) -> None:
     radius = g.input("Radius", "float", default=0.02, min=0.0)
     roundness = g.input("Roundness", "float", default=1.0, min=0.0, max=1.0)
     axis = g.input("Axis", "vector", default=(0, 1, 0))
-    part = g.input("Part", "int", default=0, min=0)
+    label = g.input("Label", "int", default=0, min=0)
     curve = quadratic_cartesian(g, start=start, end=end, offset=offset, resolution=8)["Curve"]
     aligned = align_curve_tilt_to_axis(g, curve=curve, axis=axis)["Curve"]
     mesh = rail(g, curve=aligned, profile_curve=_profile(g, 2.0, 2.0, roundness),
-                radius=radius, fill_caps=True, part=part)["Mesh"]
+                radius=radius, fill_caps=True, label=label)["Mesh"]
     g.output("Mesh", "geometry", mesh)
 
 
@@ -214,13 +214,13 @@ def top_rail(g: Graph) -> None:
     depth = g.input("Depth", "float", default=0.03, min=0.0)
     roundness = g.input("Roundness", "float", default=0.0, min=0.0, max=1.0)
     fill = g.input("Fill", "float", default=0.0, min=0.0, max=1.0)
-    part = g.input("Part", "int", default=0, min=0)
+    label = g.input("Label", "int", default=0, min=0)
     bar = g.transform(_bar_along_x(g, half_length, 9),
                       translation=g.vec(0.0, center.y, center.z))
     aligned = align_curve_tilt_to_axis(g, curve=bar, axis=tangent)["Curve"]
     mesh = middle_expand_contract(g, curve=aligned,
                                   profile_curve=_profile(g, size, depth, roundness),
-                                  radius=1.0, amount=fill, fill_caps=True, part=part)["Mesh"]
+                                  radius=1.0, amount=fill, fill_caps=True, label=label)["Mesh"]
     g.output("Mesh", "geometry", mesh)
 
 
@@ -235,14 +235,14 @@ def cross_rail(g: Graph) -> None:
     thickness_y = g.input("Thickness Y", "float", default=0.02, min=0.0)
     thickness_z = g.input("Thickness Z", "float", default=0.04, min=0.0)
     roundness = g.input("Roundness", "float", default=0.0, min=0.0, max=1.0)
-    part = g.input("Part", "int", default=0, min=0)
+    label = g.input("Label", "int", default=0, min=0)
     bar = align_curve_tilt_to_axis(g, curve=_bar_along_x(g, half_length, 2),
                                    axis=(0.0, 0.0, 1.0))["Curve"]
     one = rail(g, curve=bar, profile_curve=_profile(g, thickness_z, thickness_y, roundness),
-               radius=1.0, fill_caps=True, part=part)["Mesh"]
+               radius=1.0, fill_caps=True, label=label)["Mesh"]
     centred = g.set_position(points, position=g.position() * (0.0, 1.0, 1.0))
     tangent = g.node("GeometryNodeInputNamedAttribute", {"Name": "tangent"},
                      data_type="FLOAT_VECTOR")["Attribute"]
     turn = g.node("FunctionNodeAlignRotationToVector", {"Vector": tangent},
                   axis="Z", pivot_axis="X").out
-    g.output("Mesh", "geometry", g.instance_on_points(centred, one, Rotation=turn))
+    g.output("Mesh", "geometry", g.instance_on_points(centred, one, rotation=turn))
