@@ -15,7 +15,7 @@ from scipy import ndimage
 pytest.importorskip("bpy")
 
 from geocode.cli import main  # noqa: E402
-from geocode.fit import CloudDistance, fit  # noqa: E402
+from geocode.fit import CloudDistance, Start, fit, shape_points  # noqa: E402
 from geocode.meshio import normalise_unit_sphere  # noqa: E402
 from geocode.points import sample_surface  # noqa: E402
 from geocode.program import Program  # noqa: E402
@@ -103,10 +103,11 @@ def test_fit_never_increases_the_distance_and_stays_in_range(files):
     cloud = sample_surface(normalise_unit_sphere(target), 2000, np.random.default_rng(3))
     start = {p.name: p.default for p in vase.parameters}
     options = {"handle_count": [0.0, 2.0, 4.0]}
-    result = fit(vase, recipe, start, options, cloud, budget=40, seed=0)
+    result = fit(vase, recipe, [Start(start, options)], cloud, budget=40, seed=0)
     assert result.evaluations == 40
     assert result.after <= result.before
-    assert result.after == pytest.approx(CloudDistance(cloud)(vase.evaluate(result.values)))
+    fitted = result.pose.apply(shape_points(vase, result.values))
+    assert result.after == pytest.approx(CloudDistance(cloud)(fitted))
     for p in recipe.parameters:
         assert p.min <= result.values[p.name] <= p.max
     assert result.values["handle_count"] in options["handle_count"]

@@ -233,11 +233,12 @@ def rebuild_step(cfg: DictConfig, domain: str, predictions: Path, shard: int) ->
 
 def fit_prediction(cfg: DictConfig, domain: str, program, recipe, row: dict, values: dict) -> tuple[dict, dict]:
     """(fitted values, the fit's record) of one prediction of a fitted condition."""
-    from geocode.fit import fit
+    from geocode.fit import Start, fit
 
+    # Test clouds sit in the program's own frame, so the pose is not searched.
     cloud = point_input(cfg, domain, unfitted(row), row["id"])
-    result = fit(program, recipe, values, json.loads(row[OPTIONS]), cloud,
-                 cfg.eval.fit_budget, seed=cfg.seed)
+    result = fit(program, recipe, [Start(values, json.loads(row[OPTIONS]))], cloud,
+                 cfg.eval.fit_budget, seed=cfg.seed, pose=False)
     stats = {"condition": row["condition"], "id": row["id"], "before": result.before, "after": result.after,
              "evaluations": result.evaluations, "seconds": result.seconds}
     return result.values, stats

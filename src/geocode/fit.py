@@ -1,20 +1,26 @@
-"""Fit a program to a point cloud, starting from the network's prediction.
+"""Fit a program to a point cloud, starting from the network's guesses.
 
 The network gives a good first guess but is brittle on inputs unlike its training data; a
-short derivative-free search in the program's own parameter space then looks for the shape
-whose Chamfer distance to the input is smallest. CMA-ES (the `cma` package) searches a unit
-box: one coordinate per continuous recipe parameter over its whole range, and one per
-discrete parameter whose unit interval is split evenly among the network's most probable
-classes. The first candidate is the prediction itself, and the best shape seen is returned,
-so fitting never makes the distance worse.
+derivative-free search in the program's own parameter space then looks for the shape nearest
+the input. CMA-ES (the `cma` package) searches a unit box: one coordinate per continuous
+recipe parameter over its whole range, one per discrete parameter whose unit interval is
+split evenly among its candidate values, and four for the pose of the shape against the input
+(scale, offset; a turn about the up axis within half the spacing of the starts' turns), since
+centring on the bounding box is biased where a scan misses a side.
+
+The search restarts from the best few starts (the network's answer at several turns of the
+input), and returns the best shape seen, so fitting never makes the distance worse than the
+best start. The distance it minimises tolerates partial scans and outliers
+(`CloudDistance`, docs/fidelity.md#the-fit).
 """
 
 from __future__ import annotations
 
+import math
 import time
 import warnings
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -22,56 +28,127 @@ from scipy.spatial import cKDTree
 from geocode.meshio import normalise_unit_sphere
 from geocode.points import sample_surface
 
-FIT_POINTS = 2048   # points sampled on each candidate (fixed seed: a deterministic objective)
-SIGMA = 0.15        # CMA-ES's initial step, in units of each parameter's range
+FIT_POINTS = 2048    # points sampled on each candidate (fixed seed: a deterministic objective)
+SIGMA = 0.15         # CMA-ES's initial step, in units of each coordinate's range
+TRIM = 0.1           # share of each direction's largest distances the fit ignores
+RESTARTS = 2         # CMA-ES runs, from the best starts
+ALIGN_STEPS = 3      # closed-form pose steps per evaluation (`align`)
+MAX_TURN = math.pi / 6   # how far `align` may turn a shape from its start's turn
+SCALE_RANGE = 1.3        # ... and scale it (a factor in [1/1.3, 1.3])
+
+
+@dataclass(frozen=True)
+class Pose:
+    """Where the program's unit-sphere shape sits against the input: turned by `turn`
+    radians about +Z, scaled, then offset."""
+
+    turn: float = 0.0
+    scale: float = 1.0
+    offset: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+    def matrix(self) -> np.ndarray:
+        """The 4x4 transform, program frame -> the input's (normalised) frame."""
+        c, s = math.cos(self.turn), math.sin(self.turn)
+        m = np.eye(4)
+        m[:3, :3] = self.scale * np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+        m[:3, 3] = self.offset
+        return m
+
+    def apply(self, points: np.ndarray) -> np.ndarray:
+        m = self.matrix()
+        return np.asarray(points, dtype=np.float64) @ m[:3, :3].T + m[:3, 3]
+
+    def then(self, other: Pose) -> Pose:
+        """This pose followed by `other`."""
+        c, s = math.cos(other.turn), math.sin(other.turn)
+        rot = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+        offset = other.scale * rot @ np.asarray(self.offset) + np.asarray(other.offset)
+        return Pose(turn=self.turn + other.turn, scale=self.scale * other.scale,
+                    offset=tuple(float(o) for o in offset))
+
+    def to_dict(self) -> dict:
+        return {"turn_deg": round(math.degrees(self.turn) % 360, 2), "scale": round(self.scale, 4),
+                "offset": [round(float(o), 4) for o in self.offset]}
+
+
+@dataclass
+class Start:
+    """A point the search may start from: raw values (every program parameter), the candidate
+    values of each discrete parameter (most probable first), and the input's turn."""
+
+    values: dict[str, float]
+    options: dict[str, list[float]] = field(default_factory=dict)
+    turn: float = 0.0
 
 
 @dataclass
 class FitResult:
     values: dict[str, float]   # every program parameter, raw
-    before: float              # Chamfer distance of the prediction to the target cloud
-    after: float               # ... of the fitted shape (<= before)
+    pose: Pose                 # where the shape sits against the input
+    before: float              # the best start's distance to the target (the fit's objective)
+    after: float               # ... the fitted shape's (<= before)
     evaluations: int
     seconds: float
+    start: int = 0             # index of the start the best shape came from
+    curve: list[float] = field(default_factory=list)   # best distance after each evaluation
+
+
+def trimmed_mean(squared: np.ndarray, trim: float) -> float:
+    """Mean of the smallest (1 - trim) share of the values."""
+    keep = max(1, int(round(len(squared) * (1.0 - trim))))
+    return float(np.mean(np.partition(squared, keep - 1)[:keep]))
 
 
 class CloudDistance:
-    """Chamfer distance (as `geocode.metrics.chamfer`) from a shape to one fixed target cloud;
-    the target's k-d tree is built once."""
+    """A Chamfer distance from a shape's points to one fixed target cloud, built once.
 
-    def __init__(self, target: np.ndarray):
+    `trim` = 0 is the plain symmetric Chamfer distance of `geocode.metrics.chamfer`. With
+    `trim` > 0 each direction ignores its largest `trim` share of squared distances: target
+    points far from every shape point (outliers, clutter, a neighbouring object) no longer pull
+    the shape, and neither do the shape's points where the scan has no surface (a missing
+    underside or back), as long as they are under that share of the shape.
+    """
+
+    def __init__(self, target: np.ndarray, trim: float = TRIM):
         self.target = np.asarray(target, dtype=np.float64)
         self.tree = cKDTree(self.target)
+        self.trim = trim
 
-    def __call__(self, mesh) -> float:
-        points = sample_surface(normalise_unit_sphere(mesh), FIT_POINTS, np.random.default_rng(0))
-        to_target = self.tree.query(points)[0]
-        to_shape = cKDTree(points).query(self.target)[0]
-        return float((np.mean(to_target**2) + np.mean(to_shape**2)) / 2)
+    def __call__(self, points: np.ndarray) -> float:
+        to_target = self.tree.query(points)[0] ** 2
+        to_shape = cKDTree(points).query(self.target)[0] ** 2
+        if self.trim == 0:
+            return float((np.mean(to_target) + np.mean(to_shape)) / 2)
+        return (trimmed_mean(to_target, self.trim) + trimmed_mean(to_shape, self.trim)) / 2
+
+
+def shape_points(program, values: Mapping[str, float], n: int = FIT_POINTS) -> np.ndarray:
+    """n surface points of the program's shape on the unit sphere (fixed seed)."""
+    return sample_surface(normalise_unit_sphere(program.evaluate(values)), n,
+                          np.random.default_rng(0)).astype(np.float64)
 
 
 class SearchSpace:
     """Unit-box coordinates <-> raw values of the recipe parameters.
 
-    `options[name]` lists the candidate raw values of a discrete parameter (most probable
-    first); a continuous parameter spans [min, max] of the recipe."""
+    `start.options[name]` lists the candidate raw values of a discrete parameter (most
+    probable first); a continuous parameter spans [min, max] of the recipe."""
 
-    def __init__(self, recipe, start: Mapping[str, float], options: Mapping[str, Sequence[float]]):
-        self.recipe = recipe
-        self.start = dict(start)
+    def __init__(self, recipe, start: Start):
+        self.start = start
         self.continuous = [p for p in recipe.parameters if p.kind == "float"]
-        self.discrete = [(p, list(options.get(p.name, [start[p.name]])))
+        self.discrete = [(p, list(start.options.get(p.name, [start.values[p.name]])))
                          for p in recipe.parameters if p.kind != "float"]
 
     def x0(self) -> np.ndarray:
         """The start's coordinates (discrete: the middle of its first option's interval)."""
-        cont = [(self.start[p.name] - p.min) / (p.max - p.min) for p in self.continuous]
+        cont = [(self.start.values[p.name] - p.min) / (p.max - p.min) for p in self.continuous]
         disc = [0.5 / len(values) for _, values in self.discrete]
         return np.clip(np.array(cont + disc, dtype=np.float64), 0.0, 1.0)
 
     def values(self, x: np.ndarray) -> dict[str, float]:
         x = np.clip(x, 0.0, 1.0)
-        out = dict(self.start)
+        out = dict(self.start.values)
         for p, xi in zip(self.continuous, x, strict=False):
             out[p.name] = float(p.min + xi * (p.max - p.min))
         for (p, values), xi in zip(self.discrete, x[len(self.continuous):], strict=True):
@@ -79,48 +156,123 @@ class SearchSpace:
         return out
 
 
-def fit(program, recipe, start: Mapping[str, float], options: Mapping[str, Sequence[float]],
-        target: np.ndarray, budget: int, seed: int = 0) -> FitResult:
-    """Search at most `budget` program evaluations for the shape nearest `target` (N, 3),
-    a cloud on the unit sphere. `start` holds raw values (the prediction); `options` the
-    candidate values of the discrete parameters."""
+def align(points: np.ndarray, distance: CloudDistance, pose: Pose,
+          steps: int = ALIGN_STEPS) -> Pose:
+    """`pose` refined so that the posed `points` lie on the distance's target: each step pairs
+    every point of either cloud with its nearest in the other (the `trim` share of farthest
+    pairs dropped) and solves for the best turn about +Z, scale and offset in closed form
+    (least squares). The turn moves at most MAX_TURN and the scale stays within SCALE_RANGE
+    of the start, so that the pose cannot run off to a degenerate fit."""
+    start = pose
+    for _ in range(steps):
+        posed = pose.apply(points)
+        d_to, i_to = distance.tree.query(posed)
+        d_from, i_from = cKDTree(posed).query(distance.target)
+        p = np.concatenate([posed, posed[i_from]])
+        q = np.concatenate([distance.target[i_to], distance.target])
+        d = np.concatenate([d_to, d_from])
+        keep = d <= np.quantile(d, 1.0 - distance.trim) if distance.trim > 0 else slice(None)
+        p, q = p[keep], q[keep]
+        mp, mq = p.mean(axis=0), q.mean(axis=0)
+        a, b = p - mp, q - mq
+        turn = math.atan2(np.sum(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]),
+                          np.sum(a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1]))
+        rotated = Pose(turn=turn).apply(a)
+        scale = float(np.sum(rotated * b) / max(np.sum(a * a), 1e-12))
+        step = Pose(turn=turn, scale=scale)
+        pose = pose.then(Pose(turn=turn, scale=scale, offset=tuple(mq - step.apply(mp[None])[0])))
+    turn = start.turn + float(np.clip(pose.turn - start.turn, -MAX_TURN, MAX_TURN))
+    scale = float(np.clip(pose.scale / start.scale, 1 / SCALE_RANGE, SCALE_RANGE)) * start.scale
+    return Pose(turn=turn, scale=scale, offset=pose.offset)
+
+
+def fit(program, recipe, starts: Sequence[Start], target: np.ndarray, budget: int,
+        seed: int = 0, trim: float = TRIM, restarts: int = RESTARTS,
+        pose: bool = True) -> FitResult:
+    """Search at most `budget` program evaluations for the shape nearest `target` (N, 3), a
+    cloud on the unit sphere with +Z up; with `pose`, each candidate is first aligned to the
+    target (`align`), else it keeps its start's turn. Every start is scored first; CMA-ES then
+    runs from the best `restarts` of them, sharing what is left of the budget."""
+    started = time.perf_counter()
+    distance = CloudDistance(target, trim)
+    spaces = [SearchSpace(recipe, Start(program.check(s.values), s.options, s.turn))
+              for s in starts[:max(1, budget)]]
+    curve: list[float] = []
+    found: dict[int, tuple[float, Pose]] = {}
+
+    def objective(i: int, x: np.ndarray) -> float:
+        space = spaces[i]
+        values, where, value = space.values(np.asarray(x)), Pose(turn=space.start.turn), np.inf
+        if recipe.satisfies(values):
+            try:
+                points = shape_points(program, values)
+            except ValueError:   # a combination the program refuses
+                points = None
+            if points is not None:
+                where = align(points, distance, where) if pose else where
+                value = distance(where.apply(points))
+        if value < found.get(i, (np.inf,))[0]:
+            found[i] = (value, where)
+        curve.append(min(value, curve[-1]) if curve else value)
+        return value
+
+    scores = [objective(i, space.x0()) for i, space in enumerate(spaces)]
+    order = np.argsort(scores, kind="stable")
+    best_i, best_x = int(order[0]), spaces[order[0]].x0()
+    before = best = float(scores[best_i])
+    runs = order[:max(1, min(restarts, len(order)))]
+    for r, i in enumerate(runs):
+        share = (budget - len(curve)) // (len(runs) - r)
+        x, f = _cma(lambda x, i=int(i): objective(i, x), spaces[i].x0(), share, seed + r)
+        if f < best:
+            best, best_x, best_i = f, x, int(i)
+    return FitResult(values=spaces[best_i].values(best_x), pose=found[best_i][1], before=before,
+                     after=best, evaluations=len(curve), start=best_i,
+                     seconds=time.perf_counter() - started, curve=curve)
+
+
+def _cma(objective, x0: np.ndarray, budget: int, seed: int) -> tuple[np.ndarray, float]:
+    """The best (x, f) CMA-ES finds within `budget` evaluations of `objective` (inf for an
+    invalid shape) from x0 in the unit box."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")   # cma warns that matplotlib (plots only) is missing
         import cma
 
-    started = time.perf_counter()
-    distance = CloudDistance(target)
-    space = SearchSpace(recipe, program.check(start), options)
+    best_x, best, used = x0, np.inf, 0
+    if budget < 2:
+        return best_x, best
+    es = cma.CMAEvolutionStrategy(x0, SIGMA, {"bounds": [0.0, 1.0], "seed": seed + 1,
+                                              "verbose": -9, "maxfevals": budget,
+                                              "tolfun": 0.0, "tolx": 1e-6})
+    while used < budget and not es.stop():
+        xs = es.ask()
+        fs = []
+        for x in xs[: budget - used]:
+            fs.append(objective(x))
+            if fs[-1] < best:
+                best, best_x = fs[-1], np.asarray(x)
+        used += len(fs)
+        if len(fs) < len(xs):   # the budget ends inside this generation
+            break
+        es.tell(xs, [f if np.isfinite(f) else 1e9 for f in fs])
+    return best_x, best
 
-    def objective(x) -> float:
-        values = space.values(np.asarray(x))
-        if not recipe.satisfies(values):
-            return np.inf
-        try:
-            return distance(program.evaluate(values))
-        except ValueError:   # a combination the program refuses
-            return np.inf
 
-    x0 = space.x0()
-    best_x, best = x0, objective(x0)
-    before, evaluations = best, 1
-    if budget > 1 and len(x0) > 0:
-        options_ = {"bounds": [0.0, 1.0], "seed": seed + 1, "verbose": -9,
-                    "maxfevals": budget - 1, "tolfun": 0.0, "tolx": 1e-6}
-        es = cma.CMAEvolutionStrategy(x0, SIGMA, options_)
-        while evaluations < budget and not es.stop():
-            xs = es.ask()
-            fs = []
-            for x in xs[: budget - evaluations]:
-                fs.append(objective(x))
-                if fs[-1] < best:
-                    best, best_x = fs[-1], np.asarray(x)
-            evaluations += len(fs)
-            if len(fs) < len(xs):   # the budget ends inside this generation
-                break
-            es.tell(xs, [f if np.isfinite(f) else 1e9 for f in fs])
-    return FitResult(values=space.values(best_x), before=before, after=best,
-                     evaluations=evaluations, seconds=time.perf_counter() - started)
+def turn_about_z(points: np.ndarray, angle: float) -> np.ndarray:
+    """Points turned by `angle` radians about +Z."""
+    return Pose(turn=angle).apply(points)
+
+
+def network_starts(model, recipe, cloud: np.ndarray, turns: int, decode: str,
+                   top: int = 3) -> list[Start]:
+    """The network's answer for the input turned by each of `turns` even angles about +Z
+    (one batch): a `Start` each, whose pose turns the program's shape back onto the input."""
+    from geocode.reconstruct import ranked_predictions
+
+    angles = [2 * math.pi * k / turns for k in range(turns)]
+    batch = np.stack([turn_about_z(cloud, -a) for a in angles]).astype(np.float32)
+    ranked = ranked_predictions(model, recipe, "points", batch, decode, top)
+    return [Start(values, options, turn=a) for (values, options), a in zip(ranked, angles, strict=True)]
 
 
 def bench_fit(cfg, domain: str, n: int = 10) -> dict:
@@ -147,7 +299,8 @@ def bench_fit(cfg, domain: str, n: int = 10) -> dict:
         cloud = point_input(cfg, domain, clean, shape_id)
         gt = read_obj(data_dir(cfg, domain, "test") / "shapes" / f"{shape_id}.obj")
         start, options = ranked_prediction(model, recipe, "points", cloud, cfg.eval.decode)
-        result = fit(program, recipe, start, options, cloud, cfg.eval.fit_budget, seed=cfg.seed)
+        result = fit(program, recipe, [Start(start, options)], cloud, cfg.eval.fit_budget,
+                     seed=cfg.seed, pose=False)
         for values, out in ((program.check(start), before), (result.values, after)):
             rng = np.random.default_rng(0)
             out.append(chamfer_meshes(program.evaluate(values), gt, n=cfg.eval.chamfer_points, rng=rng))

@@ -187,22 +187,31 @@ def check_checkpoint(model, recipe, checkpoint: Path, domain: str) -> None:
 def ranked_prediction(model, recipe, modality: str, data: np.ndarray, decode: str, k: int = TOP_CLASSES):
     """(raw values of the predicted classes (`decode`: eval.decode), {discrete parameter: its
     k most probable raw values}) for one input of a modality (points (N, 3) or sketch (1, H, W))."""
+    return ranked_predictions(model, recipe, modality, data[None], decode, k)[0]
+
+
+def ranked_predictions(model, recipe, modality: str, batch: np.ndarray, decode: str,
+                       k: int = TOP_CLASSES) -> list[tuple[dict, dict]]:
+    """`ranked_prediction` for each input of a batch (B, N, 3) or (B, 1, H, W), in one pass."""
     import torch
 
-    x = torch.as_tensor(data[None], dtype=torch.float32)
+    x = torch.as_tensor(batch, dtype=torch.float32)
     with torch.inference_mode():
         outputs = model(**{"points" if modality == "points" else "sketches": x})[modality]
-        best = model.classes(outputs, modality, decode)[0].tolist()
-    start = recipe.values_from_classes(dict(zip(model.parameter_names, best, strict=True)))
-    options = {}
-    for p in recipe.parameters:
-        logits = outputs[p.name][0]
-        if p.kind == "float" or len(logits) != p.n_classes:   # continuous, or regressed
-            continue
-        ranked = torch.argsort(logits, descending=True)[:k].tolist()
-        values = [float(p.classes[c]) if c < len(p.classes) else float(p.default) for c in ranked]
-        options[p.name] = list(dict.fromkeys(values))   # the existence class may repeat one
-    return start, options
+        best = model.classes(outputs, modality, decode).tolist()
+    out = []
+    for b, classes in enumerate(best):
+        start = recipe.values_from_classes(dict(zip(model.parameter_names, classes, strict=True)))
+        options = {}
+        for p in recipe.parameters:
+            logits = outputs[p.name][b]
+            if p.kind == "float" or len(logits) != p.n_classes:   # continuous, or regressed
+                continue
+            ranked = torch.argsort(logits, descending=True)[:k].tolist()
+            values = [float(p.classes[c]) if c < len(p.classes) else float(p.default) for c in ranked]
+            options[p.name] = list(dict.fromkeys(values))   # the existence class may repeat one
+        out.append((start, options))
+    return out
 
 
 # -- the command --------------------------------------------------------------------------------
@@ -218,7 +227,7 @@ def reconstruct(cfg, domain: str, input_path: Path, out_dir: Path,
     <stem>.yaml, .obj, .png (input beside result) and .blend into `out_dir`. Everything is
     checked and computed before the first file is written."""
     from geocode.checkpoints import load_model
-    from geocode.fit import fit
+    from geocode.fit import Start, fit
     from geocode.program import Program
 
     program = Program.load(domain)
@@ -240,7 +249,7 @@ def reconstruct(cfg, domain: str, input_path: Path, out_dir: Path,
         if user_input.kind != "points":
             raise UserError("--refine: fitting needs a 3D input (mesh or cloud); give --refine 0 "
                              "for a drawing")
-        result = fit(program, recipe, start, options, user_input.data, refine, seed=cfg.seed)
+        result = fit(program, recipe, [Start(start, options)], user_input.data, refine, seed=cfg.seed)
         values = result.values
         summary.update(chamfer_before=round(result.before, 6), chamfer_after=round(result.after, 6),
                        evaluations=result.evaluations, fit_seconds=round(result.seconds, 2))

@@ -1,0 +1,118 @@
+"""The fit (`geocode.fit`): its distance, its pose search and its restarts; and the nearest
+training shape (`geocode.retrieval`), on shapes made here."""
+
+import math
+
+import numpy as np
+import pytest
+import trimesh
+
+from geocode.fit import CloudDistance, Pose, Start, trimmed_mean
+from geocode.points import sample_surface
+
+
+def box_points(n: int, seed: int, bottom: bool = True) -> np.ndarray:
+    box = trimesh.creation.box((1.0, 0.6, 0.8))
+    points = sample_surface(box, n, np.random.default_rng(seed)).astype(np.float64)
+    return points if bottom else points[points[:, 2] > -0.399]
+
+
+def test_plain_distance_is_the_metric_chamfer():
+    from geocode.metrics import chamfer
+
+    a, b = box_points(500, 0), box_points(700, 1) * 1.1
+    assert CloudDistance(b, trim=0.0)(a) == pytest.approx(chamfer(a, b))
+
+
+def test_trimmed_mean_drops_the_largest_share():
+    assert trimmed_mean(np.array([1.0, 2.0, 3.0, 100.0]), 0.25) == pytest.approx(2.0)
+    assert trimmed_mean(np.array([5.0]), 0.5) == 5.0
+
+
+def test_trimmed_distance_tolerates_a_missing_underside_and_outliers():
+    """A scan without its bottom face and with 3% far outliers: the whole box is near it
+    by the trimmed distance, and a box 20% too tall is not."""
+    rng = np.random.default_rng(2)
+    scan = box_points(3000, 3, bottom=False)
+    scan = np.concatenate([scan, rng.uniform(-1.5, 1.5, (90, 3))])
+    shape, taller = box_points(2000, 4), box_points(2000, 4) * [1.0, 1.0, 1.2]
+    plain, trimmed = CloudDistance(scan, trim=0.0), CloudDistance(scan, trim=0.1)
+    assert trimmed(shape) < 0.2 * plain(shape)
+    assert trimmed(shape) < 0.5 * trimmed(taller)
+
+
+def test_pose_turns_scales_then_offsets():
+    pose = Pose(turn=math.pi / 2, scale=2.0, offset=(0.0, 0.0, 1.0))
+    assert pose.apply(np.array([[1.0, 0.0, 0.0]])) == pytest.approx(np.array([[0.0, 2.0, 1.0]]))
+    assert pose.to_dict() == {"turn_deg": 90.0, "scale": 2.0, "offset": [0.0, 0.0, 1.0]}
+
+
+@pytest.mark.blender
+class TestFitOnAProgram:
+    SHAPE = {"body_height": 1.2, "handle_count": 1, "belly_width": 0.6}
+
+    @pytest.fixture(scope="class")
+    def vase(self):
+        pytest.importorskip("bpy")
+        from geocode.program import Program
+
+        program = Program.load("vase")
+        return program, program.recipe()
+
+    def target(self, vase, pose: Pose) -> np.ndarray:
+        from geocode.fit import shape_points
+
+        program, _ = vase
+        return pose.apply(shape_points(program, self.SHAPE, 3000))
+
+    def test_the_pose_of_a_turned_scaled_moved_shape_is_found(self, vase):
+        from geocode.fit import fit
+
+        program, recipe = vase
+        truth = Pose(turn=0.3, scale=0.9, offset=(0.05, 0.0, -0.04))
+        result = fit(program, recipe, [Start(dict(self.SHAPE))], self.target(vase, truth),
+                     budget=120, seed=0, turn_range=math.pi / 8)
+        assert result.after < 0.3 * result.before
+        assert result.pose.turn == pytest.approx(truth.turn, abs=0.1)
+        assert result.pose.scale == pytest.approx(truth.scale, abs=0.05)
+        assert result.curve == sorted(result.curve, reverse=True)   # best so far, per evaluation
+        assert len(result.curve) == result.evaluations == 120
+
+    def test_restarts_begin_at_the_best_scored_start(self, vase):
+        from geocode.fit import fit
+
+        program, recipe = vase
+        target = self.target(vase, Pose(turn=math.pi / 2))
+        starts = [Start(dict(self.SHAPE), turn=a) for a in (0.0, math.pi / 2, math.pi)]
+        result = fit(program, recipe, starts, target, budget=12, seed=0, restarts=1)
+        assert result.start == 1
+        assert result.after <= result.before < 1e-3
+
+
+@pytest.mark.blender
+def test_the_nearest_training_shape_is_found_at_its_turn(tmp_path):
+    pytest.importorskip("bpy")
+    from geocode.meshio import normalise_unit_sphere, write_obj
+    from geocode.points import save_clouds
+    from geocode.program import Program
+    from geocode.retrieval import TrainingShapes, turned
+
+    program = Program.load("vase")
+    split = tmp_path / "train"
+    (split / "shapes").mkdir(parents=True)
+    (split / "points").mkdir()
+    meshes = {}
+    for i, height in enumerate((0.6, 1.0, 1.4)):
+        mesh = normalise_unit_sphere(program.evaluate({"body_height": height, "handle_count": 1}))
+        shape_id = f"train-{i:06d}"
+        write_obj(split / "shapes" / f"{shape_id}.obj", mesh)
+        cloud = sample_surface(mesh, 1500, np.random.default_rng(i))
+        save_clouds(split / "points" / f"{shape_id}.npz", {"fps": cloud, "random": cloud})
+        meshes[shape_id] = mesh
+    shapes = TrainingShapes.from_split(split)
+    query = meshes["train-000001"].copy()
+    query.vertices = turned(query.vertices, math.pi / 2)
+    match = shapes.nearest(query)
+    assert match.shape_id == "train-000001"
+    assert match.turn == pytest.approx(math.pi / 2)
+    assert match.chamfer < 1e-3
