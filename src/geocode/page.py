@@ -234,8 +234,8 @@ figcaption{font-size:.8em;color:#555;margin-top:2px}
 .kind{font-size:.75em;color:#fff;background:#777;border-radius:3px;padding:1px 5px;vertical-align:middle}
 .error{color:#a12020;font-family:ui-monospace,monospace;word-break:break-word}
 a{color:#1a5fb4}.files a{margin-right:.7em}
-details{margin-top:.4em}summary{cursor:pointer;color:#1a5fb4}
-details table{font-size:.9em;margin-top:.3em}details td{border-bottom:1px solid #f0f0f0}
+details{flex-basis:100%;font-size:.92em}summary{cursor:pointer;color:#1a5fb4}
+details table{font-size:.9em;margin-top:.3em}details td{border-bottom:1px solid #f0f0f0}details td.num{padding-right:20px}
 .cands{flex-basis:100%;display:flex;gap:8px;flex-wrap:wrap;align-items:flex-end}
 .cands figure{width:130px}.cands figure img{width:128px;height:128px}.cands .label{font-size:.85em;color:#555;align-self:center}
 """
@@ -288,7 +288,7 @@ def card_html(entry: Entry, index: int | None = None) -> str:
         return (f"<section class='card failed'{anchor}>{heading}"
                 f"<p class='error'>{_esc(entry.error)}</p></section>")
     return (f"<section class='card'{anchor}>{pictures_html(entry)}<div class='facts'>{heading}"
-            f"{facts_html(entry)}</div>{candidates_html(entry)}</section>")
+            f"{facts_html(entry)}</div>{candidates_html(entry)}{parameters_html(entry)}</section>")
 
 
 def pictures_html(entry: Entry) -> str:
@@ -315,12 +315,26 @@ def facts_html(entry: Entry) -> str:
                                                    for k, v in entry.pose.items()) + "</p>")
     if entry.links:
         out.append(f"<p class='files'>files: {_links(entry.links)}</p>")
-    if entry.parameters:
-        rows = "".join(f"<tr><td>{_esc(k)}</td><td class='num'>{_esc(_plain(v))}</td></tr>"
-                       for k, v in entry.parameters.items())
-        out.append(f"<details><summary>{len(entry.parameters)} parameters</summary>"
-                   f"<table>{rows}</table></details>")
     return "".join(out)
+
+
+def parameters_html(entry: Entry) -> str:
+    if not entry.parameters:
+        return ""
+    return (f"<details><summary>{len(entry.parameters)} parameters</summary>"
+            f"{parameters_table(entry.parameters)}</details>")
+
+
+def parameters_table(parameters: dict, columns: int = 3) -> str:
+    """name | value pairs in `columns` pairs of columns, read down each column."""
+    items = list(parameters.items())
+    rows = math.ceil(len(items) / columns)
+    out = []
+    for r in range(rows):
+        cells = [f"<td>{_esc(k)}</td><td class='num'>{_esc(_plain(v))}</td>"
+                 for k, v in items[r::rows]]
+        out.append(f"<tr>{''.join(cells)}</tr>")
+    return f"<table class='params'>{''.join(out)}</table>"
 
 
 def candidates_html(entry: Entry) -> str:
