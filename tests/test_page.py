@@ -4,6 +4,8 @@ reruns, failed inputs, and (with bpy) pictures of input and result in one frame.
 import csv
 import io
 import re
+import shutil
+import subprocess
 from pathlib import Path
 
 import numpy as np
@@ -202,6 +204,12 @@ def test_entry_checks_its_kind_and_geometry():
     Entry("x.foo", "", error="x.foo: unknown input kind .foo")
 
 
+def test_names_given_twice_are_refused(tmp_path):
+    twice = [Entry("a.ply", "mesh", error="bad"), Entry("a.ply", "mesh", error="bad")]
+    with pytest.raises(ValueError, match=r"names given twice \(a.ply\)"):
+        write_page(twice, tmp_path, "t", render=FakeRender())
+
+
 def test_median_skips_missing_values():
     assert median([None, 1.0, float("nan"), 3.0]) == 2.0 and median([None]) is None
 
@@ -244,3 +252,26 @@ def test_cloud_rendered_shaded(blender, tmp_path):
         pixels = np.asarray(img.convert("L"))
     drawn = pixels[pixels < 245]
     assert drawn.size > 2000 and drawn.std() > 5          # spheres, lit: several shades
+
+
+CHROMIUM = shutil.which("chromium")
+# Appended to a copy of the page (details opened): after load, the body says how many images
+# decoded and whether anything is wider than the window.
+LAYOUT_CHECK = ("<script>addEventListener('load', () => { const im = [...document.images];"
+                " document.body.dataset.images = im.filter(i => i.complete && i.naturalWidth > 0).length"
+                " + '/' + im.length; document.body.dataset.overflow ="
+                " document.documentElement.scrollWidth > innerWidth; });</script>")
+
+
+@pytest.mark.skipif(CHROMIUM is None, reason="needs Debian's chromium (scripts/setup.sh installs it as root)")
+def test_page_in_chromium_loads_every_image_and_fits_the_window(tmp_path):
+    many = {f"parameter_with_a_long_name_{i}": i / 7 for i in range(60)}
+    shown = entries()
+    shown[0].parameters = many
+    index = write_page(shown, tmp_path, "t", render=FakeRender())
+    checked = tmp_path / "checked.html"
+    checked.write_text(index.read_text().replace("<details>", "<details open>") + LAYOUT_CHECK)
+    dom = subprocess.run([CHROMIUM, "--headless", "--no-sandbox", "--disable-gpu", "--window-size=1200,1600",
+                          "--dump-dom", checked.resolve().as_uri()],
+                         check=True, capture_output=True, text=True, timeout=120).stdout
+    assert 'data-images="5/5"' in dom and 'data-overflow="false"' in dom

@@ -178,6 +178,10 @@ def write_page(entries: Sequence[Entry], out_dir: str | Path, title: str, *,
     `note`: a line under the header (what the distances are, the run's settings). Returns the
     page's path."""
     out_dir = Path(out_dir)
+    names = [e.name for e in entries]
+    if len(set(names)) < len(names):
+        twice = sorted({n for n in names if names.count(n) > 1})
+        raise ValueError(f"page entries: names given twice ({', '.join(twice)}); their pictures would collide")
     for entry in entries:
         if not entry.pictures:
             render_entry(entry, out_dir, render)
