@@ -66,19 +66,29 @@ class ShadedRenderer(RenderScene):
         obj.rotation_euler = (math.radians(50), 0.0, math.radians(-20))
         self.scene.collection.objects.link(obj)
 
-    def set_mesh(self, mesh) -> None:
+    def set_mesh(self, mesh, color=None) -> None:
+        """`mesh`'s faces coloured by part label, or all in `color` (RGB, 0-1) if given."""
         set_mesh_data(self.mesh, mesh.vertices, mesh.faces)
         parts = np.asarray(mesh.metadata.get("part", np.zeros(len(mesh.faces))), dtype=int)
         rgba = np.ones((len(mesh.faces), 4), dtype=np.float32)
-        rgba[:, :3] = PALETTE[parts % len(PALETTE)]
+        rgba[:, :3] = PALETTE[parts % len(PALETTE)] if color is None else color
         attr = self.mesh.color_attributes.new("part_color", "FLOAT_COLOR", "FACE")
         attr.data.foreach_set("color", rgba.ravel())
 
-    def render(self, mesh, out_png: str | Path) -> None:
-        """Normalise `mesh` to the unit sphere and render it to `out_png` (atomically)."""
-        self.set_mesh(meshio.normalise_unit_sphere(mesh))
-        with meshio.atomic_path(out_png) as tmp:
-            render_still(self.scene, tmp).replace(tmp)
+    def render(self, mesh, out_png: str | Path, normalise: bool = True, color=None,
+               size: int | None = None) -> None:
+        """Render `mesh` to `out_png` (atomically): normalised to the unit sphere, or with
+        `normalise=False` as it is (meshes already in one frame keep their relative scale);
+        coloured by part, or all in `color`; `size` px square instead of the scene's size."""
+        self.set_mesh(meshio.normalise_unit_sphere(mesh) if normalise else mesh, color)
+        r = self.scene.render
+        saved = r.resolution_x
+        r.resolution_x = r.resolution_y = size or saved
+        try:
+            with meshio.atomic_path(out_png) as tmp:
+                render_still(self.scene, tmp).replace(tmp)
+        finally:
+            r.resolution_x = r.resolution_y = saved
 
 
 _RENDERER: ShadedRenderer | None = None
@@ -91,10 +101,11 @@ def shaded_renderer() -> ShadedRenderer:
     return _RENDERER
 
 
-def render_mesh_png(mesh, out_png: str | Path) -> None:
-    """One shaded picture of a trimesh (part labels from mesh.metadata['part'] as colours)."""
+def render_mesh_png(mesh, out_png: str | Path, **options) -> None:
+    """One shaded picture of a trimesh on white (part labels from mesh.metadata['part'] as
+    colours); `options`: those of ShadedRenderer.render (normalise, color, size)."""
     renderer = shaded_renderer()
-    renderer.render(mesh, out_png)
+    renderer.render(mesh, out_png, **options)
     with Image.open(out_png) as img:
         flat = on_white(img)
     with meshio.atomic_path(out_png) as tmp:
