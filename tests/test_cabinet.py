@@ -219,6 +219,24 @@ def test_random_cabinets_are_whole_finite_and_grounded(cabinet):
         assert loose_parts(mesh) == 0, values
 
 
+def test_random_cabinets_satisfy_the_recipe_and_have_fronts(cabinet):
+    recipe, rng = cabinet.recipe(), np.random.default_rng(0)
+    for _ in range(50):
+        values = cabinet.random_values(rng)
+        assert recipe.satisfies(values) and values["drawer_rows"] + values["door_rows"] >= 1, values
+        assert all(p.min <= values[p.name] <= p.max for p in recipe.parameters), values
+
+
+def test_random_values_name_a_recipe_whose_constraints_never_hold(cabinet, monkeypatch):
+    from geocode.errors import UserError
+
+    impossible = Recipe.from_dict({"parameters": {"width": {"samples": 4}}, "constraints": ["width > 100"]},
+                                  cabinet.parameters, cabinet.visibility(), source="impossible.yaml")
+    monkeypatch.setattr(cabinet, "_recipe_for_drawing", impossible)
+    with pytest.raises(UserError, match=r"^impossible.yaml: no random shape in 1000 draws .*; relax"):
+        cabinet.random_values(np.random.default_rng(0))
+
+
 def test_every_parameter_changes_the_mesh_somewhere_in_its_range(cabinet):
     base = {**PLAIN, "open_drawer": 1}
     settings = {"knob_size": {"handle_style": 2}, "leg_splay": {"base_style": 2},

@@ -88,3 +88,31 @@ def test_bench_epoch_refuses_an_unknown_device_in_one_line():
     result = geocode("bench", "epoch", "--device", "gpu")
     assert result.returncode == 2 and "--device gpu" in result.stderr
     assert len(result.stderr.strip().splitlines()) == 1
+
+
+@pytest.mark.parametrize("args", [
+    ["gallery", "chair", "-o", "{tmp}/g.png", "--n", "100000000"],
+    ["shape", "chair", "-o", "{tmp}/c.obj", "--png", "/proc/x.png"],
+    ["reconstruct", "vase", "{tmp}/x.obj", "-o", "{tmp}/out", "--refine", "1000000"],
+])
+def test_an_out_of_bound_size_or_unwritable_output_is_refused_before_blender_starts(args, tmp_path, monkeypatch, capsys):
+    def started():
+        raise AssertionError("Blender started for a refused command")
+    monkeypatch.setattr("geocode.cli.import_blender", started)
+    assert main([a.replace("{tmp}", str(tmp_path)) for a in args]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and err.startswith("geocode: ") and args[-2] in err
+    assert not list(tmp_path.iterdir())
+
+
+@pytest.mark.blender
+def test_a_shape_whose_picture_fails_leaves_no_obj(tmp_path, monkeypatch, capsys):
+    pytest.importorskip("bpy")
+    from geocode.errors import UserError
+
+    def broken_render(mesh, png):
+        raise UserError(png, "cannot be rendered", "a test")
+    monkeypatch.setattr("geocode.blender.gallery.render_mesh_png", broken_render)
+    assert main(["shape", "vase", "-o", str(tmp_path / "c.obj"), "--png", str(tmp_path / "c.png")]) == 2
+    assert "cannot be rendered" in capsys.readouterr().err
+    assert not list(tmp_path.iterdir())

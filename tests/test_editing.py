@@ -85,6 +85,18 @@ def test_bad_shape_file_gives_one_line_and_writes_nothing(shapes, tmp_path, caps
     assert not out.exists()
 
 
+def test_interpolate_whose_strip_fails_leaves_no_step(shapes, tmp_path, capsys, monkeypatch):
+    from geocode.errors import UserError
+
+    def broken_strip(meshes, png):
+        raise UserError(png, "cannot be rendered", "a test")
+    monkeypatch.setattr("geocode.blender.gallery.render_strip", broken_strip)
+    out = tmp_path / "seq"
+    assert main(["interpolate", "vase", *map(str, shapes), "--steps", "3", "-o", str(out)]) == 2
+    assert "cannot be rendered" in capsys.readouterr().err
+    assert not out.exists()
+
+
 INSTALL = """
 import bpy, json, sys
 bpy.ops.extensions.package_install_files(filepath=sys.argv[1], repo="user_default",

@@ -151,6 +151,19 @@ def test_blank_image_missing_and_foreign_checkpoints_are_refused(files, tmp_path
         assert not out.exists()
 
 
+def test_a_failure_in_the_last_output_leaves_none(files, tmp_path, capsys, monkeypatch):
+    from geocode.errors import UserError
+
+    def broken_save(self, path):
+        raise UserError(path, "cannot be saved", "a test")
+    monkeypatch.setattr(Program, "save_blend", broken_save)
+    out = tmp_path / "out"
+    assert main(["reconstruct", "vase", str(files["root"] / "vase.obj"), "-o", str(out),
+                 "--checkpoint", str(files["ckpt"]), "--refine", "0"]) == 2
+    assert "cannot be saved" in capsys.readouterr().err
+    assert not out.exists()
+
+
 REOPEN = """
 import bpy, json, sys
 bpy.ops.wm.open_mainfile(filepath=sys.argv[1])

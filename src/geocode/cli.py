@@ -84,25 +84,36 @@ def at_least(low: int):
     return whole
 
 
+SKETCHES_PER_CLOUD = 10   # bench epoch: a step holds batch * sketches / clouds sketches on the device
+
+
+def at_most(high: int, unit: str, why: str, low: int = 1):
+    """An argument type: a whole number in low .. high; above it, the line says why."""
+    whole = at_least(low)
+
+    def bounded(text: str) -> int:
+        if whole(text) > high:
+            raise argparse.ArgumentTypeError(f"{text!r}: at most {high} {unit}; {why}")
+        return int(text)
+    return bounded
+
+
 def output_file(text: str) -> Path:
-    """An argument type: a file that can be written, checked before any work is done."""
-    return writable(Path(text), folder=False)
+    """An argument type: a file that can be written, tried for real before any work is done."""
+    return writable(text, folder=False)
 
 
 def output_folder(text: str) -> Path:
-    return writable(Path(text), folder=True)
+    return writable(text, folder=True)
 
 
-def writable(path: Path, folder: bool) -> Path:
-    want, other = ("folder", "file") if folder else ("file", "folder")
-    if path.exists() and path.is_dir() != folder:
-        raise argparse.ArgumentTypeError(f"{path}: is a {other}; give a {want} path")
-    existing = next(p for p in ((path,) if folder else ()) + tuple(path.parents) if p.exists())
-    if not existing.is_dir():
-        raise argparse.ArgumentTypeError(f"{path}: {existing} is a file, not a folder; give another path")
-    if not os.access(existing, os.W_OK):
-        raise argparse.ArgumentTypeError(f"{path}: {existing} is not writable; give another path")
-    return path
+def writable(text: str, folder: bool) -> Path:
+    from geocode.outputs import check_writable
+
+    try:
+        return check_writable(text, folder)
+    except UserError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
 
 
 def parser() -> argparse.ArgumentParser:
@@ -136,16 +147,18 @@ def parser() -> argparse.ArgumentParser:
     c = sub.add_parser("gallery", help="render 16 random shapes into one PNG")
     c.add_argument("domain", choices=domains)
     c.add_argument("-o", "--output", required=True, type=output_file)
-    c.add_argument("--n", type=at_least(1), default=16)
+    c.add_argument("--n", type=at_most(256, "shapes", "a sheet of more (4 to a row) is too tall to view"),
+                   default=16)
     c.add_argument("--seed", type=at_least(0), default=0)
     c.set_defaults(run=cmd_gallery)
 
     c = sub.add_parser("reconstruct", help="a mesh, point cloud or drawing -> parameters, mesh, preview, .blend")
     c.add_argument("domain", choices=domains)
     c.add_argument("input", type=Path, help="mesh (.obj .ply .stl .glb), cloud (.ply .xyz .npy) or drawing (.png .jpg)")
-    c.add_argument("-o", "--output", required=True, type=Path, help="folder for <input>.yaml|obj|png|blend")
+    c.add_argument("-o", "--output", required=True, type=output_folder, help="folder for <input>.yaml|obj|png|blend")
     c.add_argument("--checkpoint", type=Path, help="default: the domain's joint model of the run (paths.runs)")
-    c.add_argument("--refine", type=int, help="program evaluations of the fit (default eval.fit_budget for clouds and meshes, 0 for drawings)")
+    c.add_argument("--refine", type=at_most(5000, "program evaluations", "a fit settles within a few hundred "
+                                          "(eval.fit_budget is 150)", low=0), help="program evaluations of the fit (default eval.fit_budget for clouds and meshes, 0 for drawings)")
     c.add_argument("--up", choices=["y", "z"], help="the input's up axis (default z; y for glTF)")
     c.add_argument("--json", action="store_true")
     c.set_defaults(run=cmd_reconstruct)
@@ -156,31 +169,36 @@ def parser() -> argparse.ArgumentParser:
     c.add_argument("b", type=Path)
     c.add_argument("--take", required=True, nargs="+", metavar="NAME",
                    help="parameters to take from b: names, or the first word of a group (handle)")
-    c.add_argument("-o", "--output", required=True, type=Path, help="the OBJ (its YAML beside it)")
+    c.add_argument("-o", "--output", required=True, type=output_file, help="the OBJ (its YAML beside it)")
     c.set_defaults(run=cmd_mix)
 
     c = sub.add_parser("interpolate", help="a sequence of shapes from a to b, and a strip PNG")
     c.add_argument("domain", choices=domains)
     c.add_argument("a", type=Path)
     c.add_argument("b", type=Path)
-    c.add_argument("--steps", type=int, default=6)
-    c.add_argument("-o", "--output", required=True, type=Path, help="folder for step-NN.obj|yaml, strip.png")
+    c.add_argument("--steps", type=at_most(64, "shapes", "a strip of more is too wide to view", low=2), default=6,
+                   help="shapes from a to b, both included (2 .. 64)")
+    c.add_argument("-o", "--output", required=True, type=output_folder, help="folder for step-NN.obj|yaml, strip.png")
     c.set_defaults(run=cmd_interpolate)
 
     addon = sub.add_parser("addon", help="the building blocks as a Blender extension").add_subparsers(required=True, metavar="action")
     c = addon.add_parser("build", help="write the extension zip (install it in Blender from disk)")
-    c.add_argument("-o", "--output", type=Path, default=Path("geocode_nodes.zip"))
+    c.add_argument("-o", "--output", type=output_file, default="geocode_nodes.zip")
     c.set_defaults(run=cmd_addon_build)
 
     c = sub.add_parser("bench", help="measure a stage's throughput")
     c.add_argument("stage", choices=["program", "dataset", "train", "epoch", "eval", "fit"])
     c.add_argument("domain", nargs="?", default="vase", choices=domains)
-    c.add_argument("--n", type=at_least(1), help="shapes (program: 200, fit: 20 test shapes)")
-    c.add_argument("--clouds", type=at_least(1), default=9330, help="epoch: clouds per epoch (paper-scale vase)")
-    c.add_argument("--sketches", type=at_least(1), default=18660, help="epoch: sketches per epoch")
+    c.add_argument("--n", type=at_most(10000, "shapes", "a rate settles within a few hundred"),
+                   help="shapes (program: 200, fit: 20 test shapes)")
+    c.add_argument("--clouds", type=at_most(100000, "clouds", "ten paper-scale epochs; the time grows with it"),
+                   default=9330, help="epoch: clouds per epoch (paper-scale vase)")
+    c.add_argument("--sketches", type=at_most(200000, "sketches", "ten paper-scale epochs; the time grows with it"),
+                   default=18660, help=f"epoch: sketches per epoch (at most {SKETCHES_PER_CLOUD} per cloud)")
     c.add_argument("--device", default="auto", help="epoch: auto (a GPU where there is one), cpu or cuda")
     c.add_argument("--variant", default="joint", help="epoch: the model variant (joint, separate, regression, huang)")
-    c.add_argument("--points", type=int, default=2300, help="epoch: points per cloud")
+    c.add_argument("--points", type=at_most(10000, "points", "the neighbour search grows with their square "
+                                          "(19 times the memory of 2300)"), default=2300, help="epoch: points per cloud")
     c.add_argument("--stability", action="store_true",
                    help="program: also the share of shapes that pass the drop test")
     c.add_argument("--json", action="store_true")
@@ -261,26 +279,33 @@ def cmd_program_show(args):
 
 def cmd_program_build(args):
     from geocode.meshio import write_text
+    from geocode.outputs import Outputs
     from geocode.program import Program
 
-    program = Program.load(args.domain)
-    program.save_blend(args.output)
-    if args.manifest:
-        write_text(args.manifest, json.dumps(program.manifest(), indent=1))
+    with Outputs() as out:
+        blend = out.reserve(args.output)
+        manifest = args.manifest and out.reserve(args.manifest)
+        program = Program.load(args.domain)
+        program.save_blend(blend)
+        if manifest:
+            write_text(manifest, json.dumps(program.manifest(), indent=1))
     return f"wrote {args.output}"
 
 
 def cmd_shape(args):
     from geocode.meshio import write_obj
+    from geocode.outputs import Outputs
     from geocode.program import Program
 
-    program = Program.load(args.domain)
-    mesh = program.evaluate(parse_values(args.values))
-    write_obj(args.output, mesh)
-    if args.png:
-        from geocode.blender.gallery import render_mesh_png
+    with Outputs() as out:
+        obj = out.reserve(args.output)
+        png = args.png and out.reserve(args.png)
+        mesh = Program.load(args.domain).evaluate(parse_values(args.values))
+        write_obj(obj, mesh)
+        if png:
+            from geocode.blender.gallery import render_mesh_png
 
-        render_mesh_png(mesh, args.png)
+            render_mesh_png(mesh, png)
     return f"wrote {args.output} ({len(mesh.faces)} faces)"
 
 
@@ -307,41 +332,53 @@ def cmd_reconstruct(args):
 
 def cmd_mix(args):
     from geocode import editing
+    from geocode.outputs import Outputs
     from geocode.program import Program
 
-    program = Program.load(args.domain)
-    a, b = (editing.read_values(path, program) for path in (args.a, args.b))
-    take = editing.select(program, args.take)
-    editing.write_shape(args.output.with_suffix(""), program, editing.mix(a, b, take))
+    with Outputs() as out:
+        obj, shape_file = (out.reserve(args.output.with_suffix(s)) for s in (".obj", ".yaml"))
+        program = Program.load(args.domain)
+        a, b = (editing.read_values(path, program) for path in (args.a, args.b))
+        take = editing.select(program, args.take)
+        editing.write_shape(obj, shape_file, program, editing.mix(a, b, take))
     return f"wrote {args.output} ({len(take)} parameters from {args.b.name}: {', '.join(take)})"
 
 
 def cmd_interpolate(args):
     from geocode import editing
     from geocode.blender.gallery import render_strip
+    from geocode.outputs import Outputs
     from geocode.program import Program
 
-    program = Program.load(args.domain)
-    a, b = (editing.read_values(path, program) for path in (args.a, args.b))
-    sequence = editing.interpolate(program, a, b, args.steps)
-    meshes = [editing.write_shape(args.output / f"step-{i:02d}", program, values)
-              for i, values in enumerate(sequence)]
-    render_strip(meshes, args.output / "strip.png")
+    with Outputs() as out:
+        files = [[out.reserve(args.output / f"step-{i:02d}{s}") for s in (".obj", ".yaml")]
+                 for i in range(args.steps)]
+        strip = out.reserve(args.output / "strip.png")
+        program = Program.load(args.domain)
+        a, b = (editing.read_values(path, program) for path in (args.a, args.b))
+        sequence = editing.interpolate(program, a, b, args.steps)
+        meshes = [editing.write_shape(obj, yaml, program, values)
+                  for (obj, yaml), values in zip(files, sequence, strict=True)]
+        render_strip(meshes, strip)
     return f"wrote {len(meshes)} shapes and strip.png to {args.output}"
 
 
 def cmd_addon_build(args):
     from geocode.blender.addon import build_addon
+    from geocode.outputs import Outputs
 
-    counts = build_addon(args.output)
+    with Outputs() as out:
+        counts = build_addon(out.reserve(args.output))
     return f"wrote {args.output}: {sum(counts.values())} blocks (" + ", ".join(
         f"{category} {n}" for category, n in counts.items()) + ")"
 
 
 def cmd_gallery(args):
     from geocode.blender.gallery import render_gallery
+    from geocode.outputs import Outputs
 
-    render_gallery(args.domain, args.output, n=args.n, seed=args.seed)
+    with Outputs() as out:
+        render_gallery(args.domain, out.reserve(args.output), n=args.n, seed=args.seed)
     return f"wrote {args.output}"
 
 
@@ -361,6 +398,10 @@ def cmd_bench(args):
     if args.stage == "epoch":
         from geocode.models.bench import bench_epoch
 
+        if args.sketches > SKETCHES_PER_CLOUD * args.clouds:
+            raise UserError(f"--sketches {args.sketches}", f"more than {SKETCHES_PER_CLOUD} per cloud "
+                            f"(--clouds {args.clouds}): a step would hold them all on the device",
+                            f"give at most {SKETCHES_PER_CLOUD * args.clouds}")
         return bench_epoch(args.clouds, args.sketches, device=args.device, n_points=args.points, variant=args.variant)
     if args.stage == "fit":
         from geocode.config import compose

@@ -73,14 +73,13 @@ def interpolate(program, a: Mapping[str, float], b: Mapping[str, float],
     return sequence
 
 
-def write_shape(stem: Path, program, values: Mapping[str, float]):
-    """`<stem>.obj` (the program's mesh, unit sphere) and `<stem>.yaml` (the values), each
-    written atomically; returns the mesh."""
+def write_shape(obj: Path, values_file: Path, program, values: Mapping[str, float]):
+    """The program's mesh (unit sphere) to the OBJ `obj` and the values to the YAML
+    `values_file`, each written atomically; returns the mesh."""
     from geocode.blender.export import typed, unit_mesh
     from geocode.meshio import write_obj, write_text
 
     mesh = unit_mesh(program, values)
-    write_text(stem.with_suffix(".yaml"), yaml.safe_dump(typed(program.parameters, values),
-                                                         sort_keys=False))
-    write_obj(stem.with_suffix(".obj"), mesh)
+    write_text(values_file, yaml.safe_dump(typed(program.parameters, values), sort_keys=False))
+    write_obj(obj, mesh)
     return mesh

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import io
 import os
-import tempfile
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -13,34 +12,17 @@ import pandas as pd
 import trimesh
 
 from geocode.errors import UserError, one_line
+from geocode.outputs import Outputs
 
 REDO_EXPORT = "delete it and rerun the export step"  # the fix for a broken dataset mesh
-_UMASK = os.umask(0o022)
-os.umask(_UMASK)
 
 
 @contextmanager
 def atomic_path(path: str | os.PathLike):
     """Yield a temporary path beside `path`; rename it onto `path` only if the block succeeds,
-    so that a crash never leaves a half-written file looking complete."""
-    path = Path(path)
-    if path.is_dir():
-        raise UserError(path, "is a folder", "give a file name to write")
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    except OSError as exc:
-        raise UserError(path, f"cannot be written ({exc.strerror})", "choose a writable place") from None
-    os.close(fd)
-    os.chmod(tmp, 0o666 & ~_UMASK)        # mkstemp makes 0600; outputs are ordinary files
-    try:
-        yield Path(tmp)
-        os.replace(tmp, path)
-    except OSError as exc:
-        raise UserError(path, f"cannot be written ({exc.strerror})", "free some space or choose another place") from None
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+    so that a crash never leaves a half-written file looking complete (one `Outputs`)."""
+    with Outputs() as outputs:
+        yield outputs.reserve(path)
 
 
 def write_bytes(path: str | os.PathLike, data: bytes) -> None:

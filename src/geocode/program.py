@@ -32,6 +32,7 @@ from geocode.timing import Stopwatch
 AXES = ("x", "y", "z")
 _KINDS = {"NodeSocketBool": "bool", "NodeSocketInt": "int", "NodeSocketFloat": "float",
           "NodeSocketVector": "vector"}
+MAX_DRAWS = 1000  # random_values: draws of a shape before the constraints are declared unmet
 _UNBOUNDED = 1e30  # Blender's default socket range is +-3.4e38: treat as "not given"
 _LOADED: dict[str, Program] = {}  # by program file: one build per process
 
@@ -82,6 +83,7 @@ class Program:
         self.parameters: list[Parameter] = [p for spec in self._inputs for p in spec.parameters]
         self._by_name = {p.name: p for p in self.parameters}
         self._visibility: dict[str, Expr | None] | None = None
+        self._recipe_for_drawing = None
 
     def _ensure_alive(self) -> None:
         if not self._evaluator.alive():  # a factory reset removed our object and tree
@@ -117,15 +119,22 @@ class Program:
         return self._evaluator.mesh(inputs)
 
     def random_values(self, rng: np.random.Generator) -> dict[str, float]:
-        """Every parameter drawn uniformly over its range (ints and bools: every value equally
-        likely), as floats."""
-        values = {}
-        for p in self.parameters:
-            if p.kind == "float":
-                values[p.name] = float(rng.uniform(p.min, p.max))
-            else:
-                values[p.name] = float(rng.integers(int(p.min), int(p.max) + 1))
-        return values
+        """A random shape of the kind the dataset holds: every recipe parameter drawn uniformly
+        over its recipe range (ints and bools: every value equally likely), the others at their
+        defaults, redrawn until the recipe's constraints hold (at most MAX_DRAWS draws)."""
+        recipe = self._drawing_recipe()
+        for _ in range(MAX_DRAWS):
+            values = {**self.check({}), **{p.name: _uniform(p, rng) for p in recipe.parameters}}
+            if recipe.satisfies(values):
+                return values
+        raise UserError(recipe.source, f"no random shape in {MAX_DRAWS} draws satisfies the constraints",
+                        "relax the constraints, or narrow the ranges of the parameters they compare")
+
+    def _drawing_recipe(self):
+        """The recipe, read once per build of the program (random_values draws many shapes)."""
+        if self._recipe_for_drawing is None:
+            self._recipe_for_drawing = self.recipe()
+        return self._recipe_for_drawing
 
     # -- description ----------------------------------------------------------------------------
 
@@ -215,6 +224,13 @@ class _Input:
             return tuple(float(values[f"{self.name}_{axis}"]) for axis in AXES)
         value = values[self.name]
         return {"bool": bool, "int": int, "float": float}[self.kind](value)
+
+
+def _uniform(parameter, rng: np.random.Generator) -> float:
+    """A value drawn uniformly over the parameter's range; ints and bools: each value alike."""
+    if parameter.kind == "float":
+        return float(rng.uniform(parameter.min, parameter.max))
+    return float(rng.integers(round(parameter.min), round(parameter.max) + 1))
 
 
 def _decimal(value: float) -> float:

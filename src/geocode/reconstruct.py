@@ -31,6 +31,7 @@ SKETCH_SIZE = 224
 SKETCH_EXTENT = 191            # median extent of the strokes in the dataset's sketches (px)
 STROKE = 2.0                   # their stroke width (px)
 TOP_CLASSES = 3                # discrete options the fit may choose among, per parameter
+OUTPUTS = (".yaml", ".obj", ".png", ".blend")
 
 
 @dataclass
@@ -224,8 +225,17 @@ def reconstruct(cfg, domain: str, input_path: Path, out_dir: Path,
                 checkpoint: Path | None = None, refine: int | None = None,
                 up: str | None = None) -> dict:
     """Predict (and for clouds, fit) the program's parameters for one input file and write
-    <stem>.yaml, .obj, .png (input beside result) and .blend into `out_dir`. Everything is
-    checked and computed before the first file is written."""
+    <stem>.yaml, .obj, .png (input beside result) and .blend into `out_dir`: all four, or
+    none where any step fails (each is reserved before the work, see `geocode.outputs`)."""
+    from geocode.outputs import Outputs
+
+    with Outputs() as out:
+        files = {suffix: out.reserve(out_dir / f"{input_path.stem}{suffix}") for suffix in OUTPUTS}
+        return _reconstruct(cfg, domain, input_path, files, checkpoint, refine, up)
+
+
+def _reconstruct(cfg, domain: str, input_path: Path, files: dict[str, Path],
+                 checkpoint: Path | None, refine: int | None, up: str | None) -> dict:
     from geocode.checkpoints import load_model
     from geocode.fit import Start, fit
     from geocode.program import Program
@@ -253,16 +263,17 @@ def reconstruct(cfg, domain: str, input_path: Path, out_dir: Path,
         values = result.values
         summary.update(chamfer_before=round(result.before, 6), chamfer_after=round(result.after, 6),
                        evaluations=result.evaluations, fit_seconds=round(result.seconds, 2))
-    write_outputs(program, values, user_input, out_dir / input_path.stem)
+    write_outputs(program, values, user_input, files)
     return summary
 
 
-def write_outputs(program, values: dict, user_input: UserInput, stem: Path) -> None:
-    """<stem>.yaml, .obj, .png and .blend (its modifier set to `values`), each atomic."""
+def write_outputs(program, values: dict, user_input: UserInput, files: dict[str, Path]) -> None:
+    """The values (.yaml), mesh (.obj), preview (.png) and program with its modifier set to
+    `values` (.blend), each to its file in `files` (by suffix)."""
     from geocode.blender.gallery import render_preview
     from geocode.editing import write_shape
 
-    mesh = write_shape(stem, program, values)
-    render_preview(user_input, mesh, stem.with_suffix(".png"))
+    mesh = write_shape(files[".obj"], files[".yaml"], program, values)
+    render_preview(user_input, mesh, files[".png"])
     program.evaluate(values)             # the modifier now holds the values: save them with it
-    program.save_blend(stem.with_suffix(".blend"))
+    program.save_blend(files[".blend"])
