@@ -368,7 +368,7 @@ def test_model_configs_compose_and_instantiate(name):
 
 
 def test_bench_epoch_counts_the_steps_of_an_epoch():
-    from geocode.models.bench import bench_epoch
+    from geocode.bench.train import bench_epoch
 
     out = bench_epoch(clouds=5, sketches=10, batch=2, device="cpu", n_points=64, n_heads=3)
     assert out["steps"] == 3 and out["clouds"] == 6 and out["sketches"] == 12

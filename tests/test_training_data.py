@@ -13,13 +13,13 @@ import pytest
 import torch
 from PIL import Image
 
+from geocode.points import eval_cloud
 from geocode.recipe import Recipe, load_manifest
 from geocode.training_data import (
     GeoCodeDataModule,
     PointAugment,
     ShapeItems,
     SketchAugment,
-    eval_cloud,
     load_sketch,
     load_split,
 )

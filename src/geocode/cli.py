@@ -347,27 +347,27 @@ def cmd_gallery(args):
 
 def cmd_bench(args):
     if args.stage == "program":
-        from geocode.program import bench
+        from geocode.bench.program import bench_program
 
-        return bench(args.domain, n=args.n or 200, stability=args.stability)
+        return bench_program(args.domain, n=args.n or 200, stability=args.stability)
     if args.stage == "dataset":
-        from geocode.blender.bench import bench_dataset
+        from geocode.bench.dataset import bench_dataset
 
         return bench_dataset(args.domain)
     if args.stage == "train":
-        from geocode.train import bench_train
+        from geocode.bench.train import bench_train
 
         return bench_train()
     if args.stage == "epoch":
-        from geocode.models.bench import bench_epoch
+        from geocode.bench.train import bench_epoch
 
         return bench_epoch(args.clouds, args.sketches, device=args.device, n_points=args.points, variant=args.variant)
     if args.stage == "fit":
+        from geocode.bench.fit import bench_fit
         from geocode.config import compose
-        from geocode.fit import bench_fit
 
         return bench_fit(compose([f"domain={args.domain}", *args.overrides]), args.domain, n=args.n or 20)
-    from geocode.evaluation import bench_eval
+    from geocode.bench.evaluate import bench_eval
 
     return bench_eval(args.domain)
 

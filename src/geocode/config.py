@@ -303,7 +303,7 @@ def _check_known(cfg: DictConfig) -> None:
 
 
 def _check_fit(cfg: DictConfig) -> None:
-    from geocode.evaluation import conditions
+    from geocode.conditions import conditions
 
     clouds = [c["condition"] for c in conditions(cfg) if c["modality"] == "pc"]
     for name in cfg.eval.fit:

@@ -21,6 +21,7 @@ import numpy as np
 import pandas as pd
 from omegaconf import DictConfig
 
+from geocode.conditions import FITTED, MODALITY_NAMES, conditions, robustness, unfitted
 from geocode.config import NAME, data_dir, simplified_split
 from geocode.errors import UserError
 from geocode.meshio import (
@@ -34,54 +35,12 @@ from geocode.meshio import (
 )
 from geocode.recipe import manifest_path
 from geocode.seeds import generator
-from geocode.timing import Stopwatch
 from geocode.variations import load_recipes, save_recipes, spread_subset
 
 log = logging.getLogger("geocode.evaluation")
 
 KEYS = ["condition", "modality", "source", "camera", "noise", "sparse", "id"]
-MODALITY_NAMES = {"points": "pc", "sketch": "sketch"}  # the model's inputs -> metrics' modality
-FITTED = "pc+fit"       # the modality of a cloud's prediction refined by `geocode.fit`
 OPTIONS = "fit_options"  # predictions' column: JSON of each discrete parameter's candidate values
-
-
-def robustness(variant: str) -> bool:
-    """Whether a variant gets the full evaluation: the robustness inputs, the mean-shape
-    baseline and the drop tests belong to the joint model's tables; the baselines and
-    ablations are compared on clean inputs only."""
-    return variant == "joint"
-
-
-def conditions(cfg: DictConfig, modalities=("pc", "sketch"), full: bool = True) -> list[dict]:
-    """The test inputs of one domain, as records with the columns of KEYS (less id): the
-    clean ones of `modalities` (pc, sketch), and with `full` the robustness inputs."""
-    cams = list(cfg.data.sketch.cameras)
-    trained = [c.name for c in cams if c.train]
-
-    def cond(modality, source="test", camera="", noise=0.0, sparse=0):
-        parts = [modality, source if source != "test" else "", camera,
-                 f"noise{noise:g}" if noise else "", f"sparse{sparse}" if sparse else ""]
-        return dict(condition="-".join(p for p in parts if p), modality=modality, source=source,
-                    camera=camera, noise=float(noise), sparse=int(sparse))
-
-    out = [cond("pc")] + [cond("sketch", camera=c.name) for c in cams]
-    if not full:
-        return [c for c in out if c["modality"] in modalities]
-    out += [cond("pc", noise=s) for s in cfg.eval.noise]
-    out += [cond("pc", sparse=n) for n in cfg.eval.sparse]
-    for f in cfg.eval.simplify:
-        out += [cond("pc", source=f"s{f}")] + [cond("sketch", source=f"s{f}", camera=c) for c in trained]
-    return out + [fitted(c) for c in out if c["condition"] in cfg.eval.fit]
-
-
-def fitted(cond: dict) -> dict:
-    """The condition of a point-cloud condition's predictions refined by the fit."""
-    return {**cond, "condition": f"{cond['condition']}-fit", "modality": FITTED}
-
-
-def unfitted(cond: dict) -> dict:
-    """The inverse of `fitted`: the condition whose clouds the fit matches."""
-    return {**cond, "condition": cond["condition"].removesuffix("-fit"), "modality": "pc"}
 
 
 def test_ids(cfg: DictConfig, domain: str) -> list[str]:
@@ -117,8 +76,7 @@ def simplify_step(cfg: DictConfig, domain: str, factor: int) -> str:
 
 def point_input(cfg: DictConfig, domain: str, cond: dict, shape_id: str) -> np.ndarray:
     """The evaluation cloud of one shape under one condition, float32 (N, 3)."""
-    from geocode.points import add_noise, load_clouds, sparse_cloud
-    from geocode.training_data import eval_cloud
+    from geocode.points import add_noise, eval_cloud, load_clouds, sparse_cloud
 
     rng = generator(cfg.seed, "eval", cond["condition"], shape_id)
     if cond["sparse"]:
@@ -139,9 +97,8 @@ def sketch_path(cfg: DictConfig, domain: str, cond: dict, shape_id: str) -> Path
 
 def predict_step(cfg: DictConfig, domain: str, checkpoint: Path, out: Path) -> str:
     """Predict every condition's test inputs, denormalise, and write one parquet of values."""
-    from geocode.checkpoints import load_model, predict_classes
+    from geocode.checkpoints import load_model, predict_classes, ranked_prediction
     from geocode.recipe import load_recipe
-    from geocode.reconstruct import ranked_prediction
     from geocode.training_data import load_sketch
 
     recipe = load_recipe(cfg)
@@ -284,22 +241,3 @@ def metrics_step(cfg: DictConfig, domain: str, predictions: Path, out: Path) -> 
     frame = pd.DataFrame(rows).assign(domain=domain, variant=variant)
     write_parquet(out, frame)
     return f"{domain}/{variant}: {len(frame)} metric rows"
-
-
-# -- benchmark --------------------------------------------------------------------------------
-
-def bench_eval(domain: str, n: int = 40) -> dict:
-    """Rebuild rate, Chamfer time (10k vs 10k) and drop-test time on real shapes of a domain."""
-    from geocode.blender.export import load_program, random_rows, unit_mesh
-    from geocode.blender.rebuild import bench_rebuild
-    from geocode.metrics import bench_chamfer
-    from geocode.stability import drop_test
-
-    program = load_program(domain)
-    meshes = [unit_mesh(program, values) for _, values in random_rows(program, n, seed=2)]
-    with Stopwatch() as clock:
-        stable = [drop_test(mesh)["stable"] for mesh in meshes]
-    drop_s = clock.seconds / n
-    return {"n": n, "rebuild_shapes_per_s": round(bench_rebuild(domain, n, program=program), 2),
-            "chamfer_ms": round(bench_chamfer(), 2), "drop_test_s": round(drop_s, 3),
-            "stable_rate": round(float(np.mean(stable)), 3)}

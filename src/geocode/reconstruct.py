@@ -30,7 +30,6 @@ MIN_POINTS = 100
 SKETCH_SIZE = 224
 SKETCH_EXTENT = 191            # median extent of the strokes in the dataset's sketches (px)
 STROKE = 2.0                   # their stroke width (px)
-TOP_CLASSES = 3                # discrete options the fit may choose among, per parameter
 
 
 @dataclass
@@ -173,43 +172,7 @@ def centre_lines(strokes: np.ndarray, reach: int) -> np.ndarray:
     return strokes & (depth >= ridge - 1.0)
 
 
-# -- prediction -------------------------------------------------------------------------------
-
-def check_checkpoint(model, recipe, checkpoint: Path, domain: str) -> None:
-    """The checkpoint's decoders must be this recipe's, else its classes mean other values."""
-    from geocode.models.heads import head_specs
-
-    if list(model.hparams.heads) != head_specs(recipe):
-        raise UserError(f"{checkpoint}: this model was trained for other parameters than "
-                         f"{domain!r}'s recipe; pass the checkpoint of a {domain} model")
-
-
-def ranked_prediction(model, recipe, modality: str, data: np.ndarray, decode: str, k: int = TOP_CLASSES):
-    """(raw values of the predicted classes (`decode`: eval.decode), {discrete parameter: its
-    k most probable raw values}) for one input of a modality (points (N, 3) or sketch (1, H, W))."""
-    import torch
-
-    x = torch.as_tensor(data[None], dtype=torch.float32)
-    with torch.inference_mode():
-        outputs = model(**{"points" if modality == "points" else "sketches": x})[modality]
-        best = model.classes(outputs, modality, decode)[0].tolist()
-    start = recipe.values_from_classes(dict(zip(model.parameter_names, best, strict=True)))
-    options = {}
-    for p in recipe.parameters:
-        logits = outputs[p.name][0]
-        if p.kind == "float" or len(logits) != p.n_classes:   # continuous, or regressed
-            continue
-        ranked = torch.argsort(logits, descending=True)[:k].tolist()
-        values = [float(p.classes[c]) if c < len(p.classes) else float(p.default) for c in ranked]
-        options[p.name] = list(dict.fromkeys(values))   # the existence class may repeat one
-    return start, options
-
-
 # -- the command --------------------------------------------------------------------------------
-
-def default_checkpoint(cfg, domain: str) -> Path:
-    return Path(cfg.paths.runs) / domain / "joint" / "checkpoints" / "best.ckpt"
-
 
 def reconstruct(cfg, domain: str, input_path: Path, out_dir: Path,
                 checkpoint: Path | None = None, refine: int | None = None,
@@ -217,7 +180,12 @@ def reconstruct(cfg, domain: str, input_path: Path, out_dir: Path,
     """Predict (and for clouds, fit) the program's parameters for one input file and write
     <stem>.yaml, .obj, .png (input beside result) and .blend into `out_dir`. Everything is
     checked and computed before the first file is written."""
-    from geocode.checkpoints import load_model
+    from geocode.checkpoints import (
+        check_checkpoint,
+        default_checkpoint,
+        load_model,
+        ranked_prediction,
+    )
     from geocode.fit import fit
     from geocode.program import Program
 

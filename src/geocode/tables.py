@@ -21,7 +21,7 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
-from geocode.evaluation import FITTED
+from geocode.conditions import FITTED
 from geocode.meshio import write_text
 
 DOMAIN_ORDER = ["chair", "vase", "table", "ceiling_lamp", "cabinet"]

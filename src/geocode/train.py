@@ -2,7 +2,6 @@
 `geocode.checkpoints` (also importable from here).
 
     train(cfg, out_dir=None) -> dict        # Lightning fit; resumes from <out>/checkpoints/last.ckpt
-    bench_train() -> {"reference_samples_per_s", "fast_samples_per_s", "speedup", "inference_ms"}
 """
 
 from __future__ import annotations
@@ -29,13 +28,12 @@ from geocode.checkpoints import (  # noqa: F401  (load_model, predict, predict_c
 from geocode.config import max_epochs
 from geocode.errors import UserError, one_line
 from geocode.meshio import write_text
-from geocode.models.bench import bench_train
 from geocode.models.module import MODALITIES, GeoCodeModule
 from geocode.recipe import load_recipe
 
 log = logging.getLogger(__name__)
 
-__all__ = ["CheckpointError", "bench_train", "load_model", "predict", "predict_classes", "train"]
+__all__ = ["CheckpointError", "load_model", "predict", "predict_classes", "train"]
 
 
 SUMMARY = "summary.json"  # in the run folder: the best scores and the majority bar

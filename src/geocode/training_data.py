@@ -10,7 +10,7 @@ Sketch convention: float32 (1, H, W) in [0, 1], white background = 1, black stro
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
@@ -24,7 +24,8 @@ from torch.utils.data import DataLoader, Dataset
 
 from geocode.errors import UserError, one_line
 from geocode.models.module import MODALITIES
-from geocode.seeds import generator, key_word
+from geocode.points import eval_pick
+from geocode.seeds import key_word
 
 IO_THREADS = 8  # file reads release the GIL (zlib, PNG decoding)
 
@@ -54,19 +55,6 @@ def _load_npz(path: Path) -> tuple[np.ndarray, np.ndarray]:
     if missing:
         raise UserError(path, f"no {sorted(missing)[0]!r} cloud in it", "delete it and rerun the points step")
     return clouds["fps"].astype(np.float32), clouds["random"].astype(np.float32)
-
-
-def eval_pick(n_random: int, n_pick: int, seed: int, shape_id: str) -> np.ndarray:
-    """The fixed evaluation choice of `n_pick` of a shape's random points (sorted indices)."""
-    return np.sort(generator(seed, "eval-cloud", shape_id).permutation(n_random)[:n_pick])
-
-
-def eval_cloud(clouds: Mapping[str, np.ndarray], n_random: int, seed: int, shape_id: str) -> np.ndarray:
-    """The evaluation cloud: all FPS points + a fixed draw, from (seed, id), of `n_random` random
-    points. Shapes: fps (F, 3), random (R, 3) -> (F + n_random, 3) float32."""
-    rand = np.asarray(clouds["random"], dtype=np.float32)
-    pick = eval_pick(len(rand), n_random, seed, shape_id)
-    return np.concatenate([np.asarray(clouds["fps"], dtype=np.float32), rand[pick]])
 
 
 # ---------------------------------------------------------------- a split in memory

@@ -6,7 +6,6 @@ One process per shard: the program is loaded once and re-evaluated for every row
 from __future__ import annotations
 
 import logging
-import tempfile
 from collections.abc import Iterator, Mapping
 from pathlib import Path
 
@@ -15,7 +14,7 @@ import yaml
 
 from geocode import meshio
 from geocode.errors import UserError, one_line
-from geocode.timing import Progress, Stopwatch
+from geocode.timing import Progress
 
 log = logging.getLogger(__name__)
 
@@ -112,17 +111,3 @@ def random_rows(program, n: int, seed: int = 0) -> list[tuple[str, dict[str, flo
     """n (id, values) pairs from the program's own sampler, for benchmarks and galleries."""
     rng = np.random.default_rng(seed)
     return [(f"bench-{i:06d}", dict(program.random_values(rng))) for i in range(n)]
-
-
-def bench_export(domain: str, n: int = 20, program=None, recipe=None) -> float:
-    """Shapes per second through `export_shape` (evaluate, normalise, four files)."""
-    program = program or load_program(domain)
-    recipe = recipe or program.recipe()
-    rows = random_rows(program, n)
-    with tempfile.TemporaryDirectory() as tmp:
-        with Stopwatch() as clock:
-            for shape_id, values in rows:
-                export_shape(program, recipe, shape_id, values, Path(tmp))
-    rate = n / clock.seconds
-    log.info("export %s: %.1f shapes/s over %d shapes", domain, rate, n)
-    return rate
