@@ -12,6 +12,8 @@ PACKAGE = "geocode"
 # The layers above the core, lowest first; every other module is the core (errors, config,
 # recipe, points, ..., and the bpy side: nodes/, program, blender/; the networks: models/).
 LAYERS = ("steps", "tools", "bench", "cli")
+# The steps in the workflow's order: a step may import the steps before it, never one after.
+STEPS = ("dataset", "train_data", "train", "evaluate", "tables", "report")
 
 
 def module_files() -> dict[str, Path]:
@@ -44,7 +46,7 @@ def imported(module: str, path: Path, modules: dict[str, Path]) -> set[str]:
             if node.level:
                 anchor = package.split(".")[: len(package.split(".")) - node.level + 1]
                 base = ".".join(anchor + ([base] if base else []))
-            # `from geocode import editing` imports the module geocode.editing
+            # `from geocode import editing` imports the module geocode.tools.editing
             found.update(owner(f"{base}.{alias.name}", modules) if f"{base}.{alias.name}" in modules
                          else owner(base, modules) for alias in node.names)
     return found - {None, module}
@@ -103,3 +105,11 @@ def test_find_cycle_names_the_cycle():
 def test_each_layer_imports_only_the_layers_below():
     upward = sorted(f"{m} -> {d}" for m, deps in import_graph().items() for d in deps if layer(d) > layer(m))
     assert not upward, f"imports of a higher layer ({' < '.join(['core', *LAYERS])}): " + "; ".join(upward)
+
+
+def test_a_step_imports_only_the_steps_before_it():
+    position = {f"geocode.steps.{name}": i for i, name in enumerate(STEPS)}
+    graph = import_graph()
+    assert set(position) == {m for m in graph if m.startswith("geocode.steps.")}, "a step missing from STEPS"
+    later = sorted(f"{m} -> {d}" for m in position for d in graph[m] if position.get(d, -1) > position[m])
+    assert not later, "a step imports a later one: " + "; ".join(later)

@@ -350,7 +350,8 @@ def _compose_model(name):
     """The composed config's model group; the group file alone where conf/config.yaml is missing."""
     from omegaconf import OmegaConf
 
-    from geocode.config import compose, repo_root
+    from geocode.config import compose
+    from geocode.paths import repo_root
 
     if (repo_root() / "conf" / "config.yaml").exists():
         return compose([f"model={name}", "profile=smoke"]).model

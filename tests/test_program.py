@@ -12,7 +12,8 @@ pytest.importorskip("bpy")
 
 from geocode.bench.program import bench_program  # noqa: E402
 from geocode.expr import parse  # noqa: E402
-from geocode.program import PROGRAMS_ENV, Program, registry  # noqa: E402
+from geocode.paths import PROGRAMS_ENV  # noqa: E402
+from geocode.program import Program, registry  # noqa: E402
 from geocode.recipe import parse_manifest  # noqa: E402
 
 pytestmark = pytest.mark.blender

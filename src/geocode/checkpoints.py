@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from geocode import paths
 from geocode.errors import UserError, one_line
 from geocode.models.network import GeoCodeNet
 
@@ -132,7 +133,7 @@ def predict(checkpoint: str | Path, points=None, sketches=None, batch_size: int 
 
 def default_checkpoint(cfg, domain: str) -> Path:
     """The domain's joint model of the run in `cfg`: what `geocode reconstruct` uses."""
-    return Path(cfg.paths.runs) / domain / "joint" / "checkpoints" / "best.ckpt"
+    return paths.checkpoint_file(paths.run_dir(cfg, domain, "joint"))
 
 
 def check_checkpoint(model, recipe, checkpoint: Path, domain: str) -> None:

@@ -5,15 +5,14 @@ from __future__ import annotations
 import hashlib
 import json
 import math
-import os
 import re
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from pathlib import Path
 
 from omegaconf import DictConfig, ListConfig, OmegaConf
 
 from geocode.errors import UserError
+from geocode.paths import SPLITS, programs_dir, repo_root
 
 KEYS_HINT = "see `geocode config --keys`"
 
@@ -22,33 +21,11 @@ class ConfigError(UserError):
     """A bad override or config value; the message is one line naming the key and the fix."""
 
 
-def repo_root() -> Path:
-    """The project folder holding conf/, programs/ and workflow/ (GEOCODE_ROOT overrides)."""
-    if root := os.environ.get("GEOCODE_ROOT"):
-        return Path(root).resolve()
-    return Path(__file__).resolve().parents[2]
-
-
-PROGRAMS_ENV = "GEOCODE_PROGRAMS"
-SPLITS = ("train", "val", "test")
-
-
-def programs_dir() -> Path:
-    """The shape programs: `$GEOCODE_PROGRAMS`, else `programs/` at the repository root."""
-    if override := os.environ.get(PROGRAMS_ENV):
-        return Path(override)
-    return repo_root() / "programs"
-
-
 def registry() -> list[str]:
     """The domains, sorted: every program `<domain>.py` with its recipe `<domain>.yaml` beside it
     (names starting with `_` are helpers, not programs)."""
     return sorted(p.stem for p in programs_dir().glob("*.py")
                   if not p.stem.startswith("_") and p.with_suffix(".yaml").exists())
-
-
-def recipe_path(domain: str) -> Path:
-    return programs_dir() / f"{domain}.yaml"
 
 
 def _register_domains() -> None:
@@ -146,7 +123,7 @@ SETTINGS = {key: Setting(meaning, *rule) for key, (meaning, rule) in {
     "paths.data": ("datasets: <data>/<domain>/<split>/", _TEXT),
     "paths.runs": ("trained models and evaluations: <runs>/<domain>/<variant>/", _TEXT),
     "paths.build": ("built programs (.blend) and their manifests", _TEXT),
-    "paths.results": ("tables and the report", _TEXT),
+    "paths.results": ("tables and the report: <results>/tables/, <results>/report/", _TEXT),
     **{f"data.variations.{split}": (f"{split} shapes per parameter class", _whole(1)) for split in SPLITS},
     "data.domain_variations": ("per-domain replacements of data.variations, {<domain>: {<split>: N}}: "
                                "more shapes for the domains that need them", _DOMAIN_VARIATIONS),
@@ -373,20 +350,3 @@ def max_epochs(cfg: DictConfig, variant: str, domain: str | None = None) -> int:
     epochs = (cfg.train.domain_epochs or {}).get(cfg.domain.name if domain is None else domain, cfg.train.max_epochs)
     share = float(cfg.train.variant_epochs.get(variant, 1.0))
     return max(1, round(int(epochs) * share))
-
-
-def simplified_split(factor: int) -> str:
-    """The decimated copy of the test split that keeps 1/factor of the faces."""
-    return f"test-s{factor}"
-
-
-def splits(cfg: DictConfig) -> list[str]:
-    return [*SPLITS, *(simplified_split(f) for f in cfg.eval.simplify)]
-
-
-def data_dir(cfg: DictConfig, domain: str, split: str) -> Path:
-    """<paths.data>/<domain>/<split>; a split from outside the known set is refused, so that
-    no user-given name leads out of the data folder."""
-    if split not in splits(cfg):
-        raise ConfigError(f"split {split!r}", "unknown", f"use one of {', '.join(splits(cfg))}")
-    return Path(cfg.paths.data) / domain / split

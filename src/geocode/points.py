@@ -13,7 +13,7 @@ import numba
 import numpy as np
 import trimesh
 
-from geocode import meshio
+from geocode import meshio, paths
 from geocode.errors import UserError, one_line
 from geocode.meshio import REDO_EXPORT
 from geocode.seeds import generator
@@ -218,20 +218,20 @@ def points_shard(
     rng is seeded from (seed, id), so reruns and any shard order give identical bytes.
     """
     split_dir = Path(split_dir)
-    ids_file = split_dir / "done" / f"export-{shard}.txt"
+    ids_file = paths.done_file(split_dir, "export", shard)
     if not ids_file.exists():
         raise UserError(ids_file, "missing", f"run the export step for shard {shard} first")
     ids = [line.strip() for line in ids_file.read_text().splitlines() if line.strip()]
     sizes = {k: int(cfg_points[k]) for k in ("surface", "fps", "random")}
     progress = Progress(f"points shard {shard}", len(ids), log)
     for shape_id in ids:
-        out = split_dir / "points" / f"{shape_id}.npz"
+        out = paths.cloud_file(split_dir, shape_id)
         if not _complete(out):
-            mesh = meshio.read_obj(split_dir / "shapes" / f"{shape_id}.obj", REDO_EXPORT)
+            mesh = meshio.read_obj(paths.shape_file(paths.shapes_dir(split_dir), shape_id), REDO_EXPORT)
             rng = generator(seed, "points", shape_id)
             save_clouds(out, make_clouds(mesh, **sizes, rng=rng))
         progress.step()
     progress.finish()
-    done = split_dir / "done" / f"points-{shard}.txt"
+    done = paths.done_file(split_dir, "points", shard)
     meshio.write_text(done, "".join(f"{i}\n" for i in ids))
     return done

@@ -20,9 +20,10 @@ from types import ModuleType
 import numpy as np
 import trimesh
 
-from geocode.config import PROGRAMS_ENV, programs_dir, recipe_path, registry  # noqa: F401 (PROGRAMS_ENV, registry re-exported)
+from geocode.config import registry  # noqa: F401 (re-exported)
 from geocode.errors import UserError
 from geocode.expr import Expr
+from geocode.paths import program_path, recipe_path
 from geocode.recipe import Parameter
 
 AXES = ("x", "y", "z")
@@ -33,7 +34,7 @@ _LOADED: dict[str, Program] = {}  # by program file: one build per process
 
 
 def _import_program(domain: str) -> ModuleType:
-    path = programs_dir() / f"{domain}.py"
+    path = program_path(domain)
     if not path.exists():
         known = ", ".join(registry()) or "none"
         raise UserError(f"{path}: no such program; known domains: {known}")
@@ -57,7 +58,7 @@ class Program:
     @classmethod
     def load(cls, domain: str) -> Program:
         """The program of `domain`; loaded once per process and rebuilt after a reset."""
-        key = str((programs_dir() / f"{domain}.py").resolve())
+        key = str((program_path(domain)).resolve())
         program = _LOADED.get(key)
         if program is None:
             program = _LOADED[key] = cls(domain, _import_program(domain))

@@ -6,14 +6,14 @@ import statistics
 
 import numpy as np
 
+from geocode import paths
 from geocode.checkpoints import check_checkpoint, default_checkpoint, load_model, ranked_prediction
 from geocode.conditions import conditions
-from geocode.config import data_dir
-from geocode.evaluation import point_input, test_ids
 from geocode.fit import fit
 from geocode.meshio import read_obj
 from geocode.metrics import chamfer_meshes
 from geocode.program import Program
+from geocode.steps.evaluate import point_input, test_ids
 
 
 def bench_fit(cfg, domain: str, n: int = 10) -> dict:
@@ -28,7 +28,7 @@ def bench_fit(cfg, domain: str, n: int = 10) -> dict:
     before, after, seconds, evaluations = [], [], [], 0
     for shape_id in test_ids(cfg, domain)[:n]:
         cloud = point_input(cfg, domain, clean, shape_id)
-        gt = read_obj(data_dir(cfg, domain, "test") / "shapes" / f"{shape_id}.obj")
+        gt = read_obj(paths.shape_file(paths.shapes_dir(paths.split_dir(cfg, domain, "test")), shape_id))
         start, options = ranked_prediction(model, recipe, "points", cloud, cfg.eval.decode)
         result = fit(program, recipe, start, options, cloud, cfg.eval.fit_budget, seed=cfg.seed)
         for values, out in ((program.check(start), before), (result.values, after)):

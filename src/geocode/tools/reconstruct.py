@@ -219,7 +219,7 @@ def reconstruct(cfg, domain: str, input_path: Path, out_dir: Path,
 def write_outputs(program, values: dict, user_input: UserInput, stem: Path) -> None:
     """<stem>.yaml, .obj, .png and .blend (its modifier set to `values`), each atomic."""
     from geocode.blender.gallery import render_preview
-    from geocode.editing import write_shape
+    from geocode.tools.editing import write_shape
 
     mesh = write_shape(stem, program, values)
     render_preview(user_input, mesh, stem.with_suffix(".png"))

@@ -16,6 +16,7 @@ import pandas as pd
 import pytorch_lightning as pl
 from omegaconf import DictConfig, OmegaConf
 
+from geocode import paths
 from geocode.checkpoints import (  # noqa: F401  (load_model, predict, predict_classes: this module's API too)
     CheckpointError,
     check_recipe,
@@ -36,9 +37,6 @@ log = logging.getLogger(__name__)
 __all__ = ["CheckpointError", "load_model", "predict", "predict_classes", "train"]
 
 
-SUMMARY = "summary.json"  # in the run folder: the best scores and the majority bar
-
-
 # ---------------------------------------------------------------- config helpers
 
 
@@ -56,7 +54,7 @@ def run_dir(cfg: DictConfig, out_dir: str | Path | None) -> Path:
         return Path(out_dir)
     if cfg.train.get("out_dir"):
         return Path(cfg.train.out_dir)
-    return Path(cfg.paths.runs) / cfg.domain.name / variant(cfg)
+    return paths.run_dir(cfg, cfg.domain.name, variant(cfg))
 
 
 def build_model(cfg: DictConfig, recipe) -> GeoCodeModule:
@@ -89,13 +87,13 @@ class RecipeStamp(pl.Callback):
 
 
 def build_datamodule(cfg: DictConfig, recipe, modalities=MODALITIES):
-    from geocode.training_data import GeoCodeDataModule, PointAugment, SketchAugment
+    from geocode.steps.train_data import GeoCodeDataModule, PointAugment, SketchAugment
 
     t = cfg.train
     aug = OmegaConf.to_container(t.augment, resolve=True) if t.get("augment") else {}
     point_aug = OmegaConf.to_container(t.augment_points, resolve=True) if t.get("augment_points") else {}
     return GeoCodeDataModule(
-        root=Path(cfg.paths.data) / cfg.domain.name,
+        root=paths.domain_dir(cfg, cfg.domain.name),
         recipe=recipe,
         cameras=camera_names(cfg),
         n_random=int(cfg.data.points.train_random),
@@ -134,13 +132,13 @@ def train(cfg: DictConfig, out_dir: str | Path | None = None) -> dict:
 
     t = cfg.train
     out = run_dir(cfg, out_dir)
-    ckpt_dir = out / "checkpoints"
+    ckpt_dir = paths.checkpoint_dir(out)
     pl.seed_everything(int(cfg.seed), workers=True)
     recipe = load_recipe(cfg)
     model = build_model(cfg, recipe)
     data = build_datamodule(cfg, recipe, model.modalities)   # huang reads no clouds
     data.setup("fit")  # read (and check) the data before the run folder is made; kept for fit
-    last = ckpt_dir / "last.ckpt"
+    last = paths.checkpoint_file(out, "last")
     resume = last if last.exists() else None
     if resume is not None:
         check_compatible(resume, model)
@@ -163,7 +161,7 @@ def train(cfg: DictConfig, out_dir: str | Path | None = None) -> dict:
         log_every_n_steps=int(t.get("log_every_n_steps", 10)),
         num_sanity_val_steps=0,
     )
-    write_text(out / "config.yaml", OmegaConf.to_yaml(cfg, resolve=True))  # the run folder's first file
+    write_text(paths.run_config_file(out), OmegaConf.to_yaml(cfg, resolve=True))  # the run folder's first file
     trainer.fit(model, datamodule=data, ckpt_path=resume, weights_only=True)
     score = best_cb.best_model_score
     curves = epoch_metrics(out)
@@ -171,7 +169,7 @@ def train(cfg: DictConfig, out_dir: str | Path | None = None) -> dict:
     best_row = curves.loc[curves["val/acc"].idxmax()] if "val/acc" in curves else {}
     result = {
         "out_dir": str(out),
-        "best": str(ckpt_dir / "best.ckpt"),
+        "best": str(paths.checkpoint_file(out)),
         "last": str(last),
         "best_val_acc": None if score is None else float(score),
         **{f"best_val_acc_{m}": float(best_row[f"val/acc_{m}"]) for m in MODALITIES if f"val/acc_{m}" in curves},
@@ -180,7 +178,7 @@ def train(cfg: DictConfig, out_dir: str | Path | None = None) -> dict:
         "epochs": int(trainer.current_epoch),
         "resumed": resume is not None,
     }
-    write_text(out / SUMMARY, json.dumps(result, indent=1) + "\n")
+    write_text(paths.summary_file(out), json.dumps(result, indent=1) + "\n")
     log.info("trained %s: %s", cfg.domain.name, result)
     return result
 
@@ -188,7 +186,7 @@ def train(cfg: DictConfig, out_dir: str | Path | None = None) -> dict:
 def epoch_metrics(run: str | Path) -> pd.DataFrame:
     """Per-epoch metrics of a run folder, from the CSV logs of every (re)start: one row per
     epoch (the last logged value of each column), indexed by epoch."""
-    files = sorted(Path(run).glob("logs/version_*/metrics.csv"), key=lambda f: int(f.parent.name.split("_")[1]))
+    files = paths.csv_log_files(run)
     if not files:
         raise FileNotFoundError(f"{run}: no logs/version_*/metrics.csv; train first")
     rows = pd.concat([pd.read_csv(f) for f in files], ignore_index=True)
@@ -215,10 +213,9 @@ def majority_accuracy(cfg: DictConfig, recipe) -> float:
 
 def majority_per_parameter(cfg: DictConfig, recipe) -> dict[str, float]:
     """{parameter: val accuracy of its most frequent train class}, in recipe order."""
-    from geocode.config import data_dir
-    from geocode.variations import load_recipes
+    from geocode.recipe import load_recipes
 
-    classes = {split: recipe.class_matrix(load_recipes(data_dir(cfg, cfg.domain.name, split) / "recipes.parquet"))
+    classes = {split: recipe.class_matrix(load_recipes(paths.recipes_file(paths.split_dir(cfg, cfg.domain.name, split))))
                for split in ("train", "val")}
     common = np.array([np.bincount(column).argmax() for column in classes["train"].T])  # (P,)
     hits = (classes["val"] == common).mean(axis=0)  # (P,)

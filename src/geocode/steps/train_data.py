@@ -22,6 +22,7 @@ import torch.nn.functional as F
 from PIL import Image
 from torch.utils.data import DataLoader, Dataset
 
+from geocode import paths
 from geocode.errors import UserError, one_line
 from geocode.models.module import MODALITIES
 from geocode.points import eval_pick
@@ -77,18 +78,18 @@ class SplitData:
 
 def load_split(split_dir: str | Path, recipe, cameras: Sequence[str]) -> SplitData:
     """Read a split folder: labels from recipes.parquet, clouds and sketches in parallel."""
-    from geocode.variations import load_recipes
+    from geocode.recipe import load_recipes
 
     split_dir = Path(split_dir)
-    frame = load_recipes(split_dir / "recipes.parquet")
+    frame = load_recipes(paths.recipes_file(split_dir))
     ids = [str(i) for i in frame["id"]]
     if not ids:
-        raise UserError(split_dir / "recipes.parquet", "no shapes in this split", "sample more")
+        raise UserError(paths.recipes_file(split_dir), "no shapes in this split", "sample more")
     labels = recipe.class_matrix(frame).astype(np.int64)  # (n, P)
     with ThreadPoolExecutor(IO_THREADS) as pool:
-        clouds = list(pool.map(_load_npz, [split_dir / "points" / f"{i}.npz" for i in ids]))
+        clouds = list(pool.map(_load_npz, [paths.cloud_file(split_dir, i) for i in ids]))
         sketches = {
-            cam: np.stack(list(pool.map(load_sketch_u8, [split_dir / "sketches" / f"{i}_{cam}.png" for i in ids])))
+            cam: np.stack(list(pool.map(load_sketch_u8, [paths.sketch_file(split_dir, i, cam) for i in ids])))
             for cam in cameras
         }
     fps = np.stack([c[0] for c in clouds])  # (n, F, 3)
@@ -247,7 +248,7 @@ class GeoCodeDataModule(pl.LightningDataModule):
         if name not in self.splits:
             cams = self.cameras if name == "train" else [self.eval_camera]
             cams = cams if "sketch" in self.modalities else []
-            self.splits[name] = load_split(self.root / name, self.recipe, cams)
+            self.splits[name] = load_split(paths.split_of(self.root, name), self.recipe, cams)
         return self.splits[name]
 
     def setup(self, stage: str | None = None) -> None:
