@@ -7,7 +7,7 @@ import trimesh
 
 pytest.importorskip("bpy")
 
-from geocode.program import programs_dir  # noqa: E402
+from geocode.paths import programs_dir  # noqa: E402
 from geocode.recipe import Recipe  # noqa: E402
 from geocode.stability import loose_parts  # noqa: E402
 

@@ -9,7 +9,7 @@ import pytest
 
 pytest.importorskip("bpy")
 
-from geocode.program import programs_dir  # noqa: E402
+from geocode.paths import programs_dir  # noqa: E402
 from geocode.recipe import Recipe  # noqa: E402
 from geocode.stability import loose_parts  # noqa: E402
 
@@ -97,7 +97,7 @@ def test_recipe_loads_against_the_program(lamp):
 def test_the_program_declares_that_it_hangs(lamp, tmp_path):
     """No drop test for it: the manifest carries the program's HANGS to the evaluation."""
     from geocode.config import compose
-    from geocode.evaluation import hangs
+    from geocode.steps.evaluate import hangs
 
     assert lamp.hangs and lamp.manifest()["hangs"] is True
     cfg = compose([f"paths.build={tmp_path}"])

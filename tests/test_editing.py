@@ -11,9 +11,9 @@ import yaml
 
 pytest.importorskip("bpy")
 
-from geocode import editing  # noqa: E402
 from geocode.cli import main  # noqa: E402
 from geocode.program import Program  # noqa: E402
+from geocode.tools import editing  # noqa: E402
 
 pytestmark = pytest.mark.blender
 

@@ -23,8 +23,8 @@ import pytest
 import torch
 
 from geocode.cli import main
-from geocode.config import PROGRAMS_ENV, repo_root
 from geocode.errors import UserError
+from geocode.paths import PROGRAMS_ENV, repo_root
 
 LOG_LINE = re.compile(r"\d\d:\d\d:\d\d ")  # progress lines of the logging module, not errors
 
@@ -365,9 +365,8 @@ def nan_obj() -> str:
 def file_readers():
     from geocode.meshio import read_obj, read_parquet
     from geocode.points import load_clouds
-    from geocode.recipe import load_manifest
-    from geocode.training_data import load_sketch_u8
-    from geocode.variations import load_recipes
+    from geocode.recipe import load_manifest, load_recipes
+    from geocode.steps.train_data import load_sketch_u8
 
     return {
         "obj zero-byte": ("m.obj", b"", read_obj),
@@ -524,7 +523,7 @@ def checkpoint(tmp: Path, build: Path, name: str, change) -> None:
     `change` edits its checkpoint dictionary."""
     from geocode.config import compose
     from geocode.recipe import load_recipe
-    from geocode.train import build_model, recipe_stamp
+    from geocode.steps.train import build_model, recipe_stamp
 
     cfg = compose(["profile=smoke", f"paths.build={build}"])
     recipe = load_recipe(cfg)

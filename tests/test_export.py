@@ -13,7 +13,7 @@ import yaml
 
 from geocode import meshio
 from geocode.blender import export
-from geocode.variations import save_recipes
+from geocode.recipe import save_recipes
 
 
 class Param:
@@ -126,7 +126,7 @@ def test_missing_columns_named(tmp_path):
 
 
 def _vase_or_skip():
-    from geocode.config import repo_root
+    from geocode.paths import repo_root
 
     if importlib.util.find_spec("geocode.program") is None:
         pytest.skip("geocode.program is not written yet (another engineer's module)")

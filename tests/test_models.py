@@ -350,7 +350,8 @@ def _compose_model(name):
     """The composed config's model group; the group file alone where conf/config.yaml is missing."""
     from omegaconf import OmegaConf
 
-    from geocode.config import compose, repo_root
+    from geocode.config import compose
+    from geocode.paths import repo_root
 
     if (repo_root() / "conf" / "config.yaml").exists():
         return compose([f"model={name}", "profile=smoke"]).model
@@ -368,7 +369,7 @@ def test_model_configs_compose_and_instantiate(name):
 
 
 def test_bench_epoch_counts_the_steps_of_an_epoch():
-    from geocode.models.bench import bench_epoch
+    from geocode.bench.train import bench_epoch
 
     out = bench_epoch(clouds=5, sketches=10, batch=2, device="cpu", n_points=64, n_heads=3)
     assert out["steps"] == 3 and out["clouds"] == 6 and out["sketches"] == 12

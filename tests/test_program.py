@@ -10,8 +10,10 @@ import pytest
 
 pytest.importorskip("bpy")
 
+from geocode.bench.program import bench_program  # noqa: E402
 from geocode.expr import parse  # noqa: E402
-from geocode.program import PROGRAMS_ENV, Program, bench, registry  # noqa: E402
+from geocode.paths import PROGRAMS_ENV  # noqa: E402
+from geocode.program import Program, registry  # noqa: E402
 from geocode.recipe import parse_manifest  # noqa: E402
 
 pytestmark = pytest.mark.blender
@@ -200,8 +202,8 @@ def test_random_values_cover_ranges_reproducibly(toy):
 
 
 def test_bench_reports_speed_and_validity(toy):
-    result = bench("toy", n=5)
+    result = bench_program("toy", n=5)
     assert result["n"] == 5 and result["shapes_per_s"] > 0
     assert result["median_faces"] > 0 and 0.0 <= result["loose_part_rate"] <= 1.0
     assert "stable_rate" not in result
-    assert 0.0 <= bench("toy", n=3, stability=True)["stable_rate"] <= 1.0
+    assert 0.0 <= bench_program("toy", n=3, stability=True)["stable_rate"] <= 1.0

@@ -10,7 +10,7 @@ import yaml
 
 pytest.importorskip("bpy")
 
-from geocode.config import recipe_path  # noqa: E402
+from geocode.paths import recipe_path  # noqa: E402
 from geocode.program import Program, registry  # noqa: E402
 
 pytestmark = pytest.mark.blender

@@ -10,6 +10,7 @@ from test_export import TowerDouble, _vase_or_skip
 
 from geocode import meshio
 from geocode.blender import rebuild as rb
+from geocode.blender.export import random_rows
 
 
 def test_rebuild_writes_unit_sphere_objs(tmp_path):
@@ -52,7 +53,7 @@ def test_gallery_of_a_double(tmp_path):
 @pytest.mark.blender
 def test_rebuild_real_vase(tmp_path):
     program, _ = _vase_or_skip()
-    rows = rb.random_rows(program, 3, seed=5)
+    rows = random_rows(program, 3, seed=5)
     paths = rb.rebuild("vase", rows, tmp_path, program=program)
     for path, (_, values) in zip(paths, rows, strict=True):
         mesh = meshio.read_obj(path)

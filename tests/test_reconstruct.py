@@ -19,7 +19,7 @@ from geocode.fit import CloudDistance, Start, fit, shape_points  # noqa: E402
 from geocode.meshio import normalise_unit_sphere  # noqa: E402
 from geocode.points import sample_surface  # noqa: E402
 from geocode.program import Program  # noqa: E402
-from geocode.reconstruct import SKETCH_EXTENT, sketch_from_image  # noqa: E402
+from geocode.tools.reconstruct import SKETCH_EXTENT, sketch_from_image  # noqa: E402
 
 pytestmark = pytest.mark.blender
 SHAPE = {"body_height": 1.2, "handle_count": 2, "belly_width": 0.6}
@@ -78,7 +78,7 @@ def test_every_input_kind_gives_values_mesh_preview_and_blend(files, tmp_path, c
 
 def test_glb_is_read_y_up(files):
     from geocode.config import compose
-    from geocode.reconstruct import read_input
+    from geocode.tools.reconstruct import read_input
 
     cfg = compose(["domain=vase"])
     glb = read_input(files["root"] / "vase.glb", None, cfg.data.points).data

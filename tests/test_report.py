@@ -11,7 +11,8 @@ import pytest
 from PIL import Image
 from test_training_data import DOMAIN, toy_config
 
-from geocode.report import (
+from geocode.paths import summary_file
+from geocode.steps.report import (
     cloud_image,
     curve_svg,
     run_training_html,
@@ -19,7 +20,7 @@ from geocode.report import (
     training_html,
     write_report,
 )
-from geocode.train import SUMMARY, epoch_metrics, train
+from geocode.steps.train import epoch_metrics, train
 
 CHROMIUM = shutil.which("chromium")
 # Appended to a copy of the page: after load, the body says how many images decoded.
@@ -33,7 +34,7 @@ def run(tmp_path_factory):
     """A three-epoch joint run on the synthetic dataset: (run folder, summary)."""
     with toy_config(tmp_path_factory.mktemp("report"), epochs=3) as cfg:
         result = train(cfg)
-    return Path(result["out_dir"]), json.loads((Path(result["out_dir"]) / SUMMARY).read_text())
+    return Path(result["out_dir"]), json.loads(summary_file(Path(result["out_dir"])).read_text())
 
 
 def test_summary_and_curves_come_from_the_training_logs(run):

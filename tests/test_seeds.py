@@ -5,14 +5,15 @@ import numpy as np
 import pandas as pd
 import pytest
 import torch
+from test_sample import PARAMETERS, RECIPE, VARIATIONS, VISIBILITY
 from test_training_data import CAMERAS, DOMAIN, N_PICK, make_dataset
-from test_variations import PARAMETERS, RECIPE, VARIATIONS, VISIBILITY
 
-from geocode.config import PROGRAMS_ENV, compose
+from geocode.config import compose
+from geocode.paths import PROGRAMS_ENV
 from geocode.recipe import Recipe, load_recipe
 from geocode.seeds import generator
-from geocode.train import build_datamodule
-from geocode.variations import sample_dataset
+from geocode.steps.dataset import sample_dataset
+from geocode.steps.train import build_datamodule
 
 
 def test_generator_depends_on_seed_and_keys():

@@ -47,7 +47,7 @@ def calls(env: dict, tool: str) -> list[list[str]]:
 
 def test_the_slurm_profile_plans_the_whole_dag_without_submitting(cluster):
     work, env = cluster
-    result = snakemake(work, env, "-n", "results/tables")
+    result = snakemake(work, env, "-n", "results/smoke/tables")
     assert result.returncode == 0, result.stderr[-3000:]
     assert "rule train" in result.stdout + result.stderr
     assert not (Path(env["GEOCODE_SLURM_STANDIN"]) / "jobs.jsonl").exists()

@@ -4,7 +4,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from geocode.tables import (
+from geocode.steps.tables import (
     STAT_SUFFIXES,
     bootstrap_ci,
     build_tables,

@@ -10,7 +10,7 @@ import pytest
 import torch
 from test_training_data import CAMERAS, DOMAIN, N_FPS, N_PICK, toy_config
 
-from geocode.train import CheckpointError, load_model, predict, predict_classes, train
+from geocode.steps.train import CheckpointError, load_model, predict, predict_classes, train
 
 
 @pytest.fixture(scope="module")
@@ -91,14 +91,13 @@ def test_bad_checkpoints_fail_in_one_line(run, tmp_path):
 
 
 def test_majority_accuracy_is_the_most_frequent_train_class_scored_on_val(run):
-    from geocode.config import data_dir
-    from geocode.recipe import load_recipe
-    from geocode.train import majority_accuracy
-    from geocode.variations import load_recipes
+    from geocode.paths import recipes_file, split_dir
+    from geocode.recipe import load_recipe, load_recipes
+    from geocode.steps.train import majority_accuracy
 
     cfg, result = run
     recipe = load_recipe(cfg)
-    train_c, val_c = (recipe.class_matrix(load_recipes(data_dir(cfg, DOMAIN, s) / "recipes.parquet"))
+    train_c, val_c = (recipe.class_matrix(load_recipes(recipes_file(split_dir(cfg, DOMAIN, s))))
                       for s in ("train", "val"))
     per_parameter = []
     for j in range(train_c.shape[1]):
@@ -125,7 +124,7 @@ def test_loaded_network_predicts_as_the_trained_module_without_lightning(run):
     assert net.state_dict().keys() == module.state_dict().keys()
     points = np.random.default_rng(1).normal(size=(4, N_FPS + N_PICK, 3)).astype(np.float32)
     np.testing.assert_array_equal(predict_classes(net, points=points), predict_classes(module.eval(), points=points))
-    code = "import sys, geocode.checkpoints, geocode.reconstruct; print('pytorch_lightning' in sys.modules)"
+    code = "import sys, geocode.checkpoints, geocode.tools.reconstruct; print('pytorch_lightning' in sys.modules)"
     assert subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip() == "False"
 
 

@@ -1,4 +1,4 @@
-"""geocode.training_data on a tiny synthetic dataset written in the design.md layout.
+"""geocode.steps.train_data on a tiny synthetic dataset written in the design.md layout.
 
 `make_dataset` writes a test double of a built program (manifest + recipe) and of a
 generated dataset (recipes.parquet, points/*.npz, sketches/*.png): no Blender involved.
@@ -13,13 +13,13 @@ import pytest
 import torch
 from PIL import Image
 
+from geocode.points import eval_cloud
 from geocode.recipe import Recipe, load_manifest
-from geocode.training_data import (
+from geocode.steps.train_data import (
     GeoCodeDataModule,
     PointAugment,
     ShapeItems,
     SketchAugment,
-    eval_cloud,
     load_sketch,
     load_split,
 )
@@ -83,7 +83,8 @@ def make_dataset(root, sizes=None, seed=0):
 def toy_config(root, epochs: int, *overrides: str):
     """The composed config of a CPU training run on `make_dataset(root)`, with the toy
     domain in the program registry while the context lasts."""
-    from geocode.config import PROGRAMS_ENV, compose
+    from geocode.config import compose
+    from geocode.paths import PROGRAMS_ENV
 
     data, build, recipe_path = make_dataset(root)
     recipe_path.with_suffix(".py").write_text("")  # registers the domain; training never runs it

@@ -9,7 +9,8 @@ from PIL import Image
 
 pytest.importorskip("bpy")
 
-from geocode.program import PROGRAMS_ENV, Program, registry  # noqa: E402
+from geocode.paths import PROGRAMS_ENV  # noqa: E402
+from geocode.program import Program, registry  # noqa: E402
 from geocode.stability import loose_parts  # noqa: E402
 
 pytestmark = pytest.mark.blender

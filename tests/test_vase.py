@@ -43,7 +43,7 @@ def test_parameter_space(vase):
 
 
 def test_recipe_loads_against_the_program(vase):
-    from geocode.program import programs_dir
+    from geocode.paths import programs_dir
 
     recipe = Recipe.load(programs_dir() / "vase.yaml", vase.parameters, vase.visibility())
     assert len(recipe.parameters) == len(vase.parameters)

@@ -1,4 +1,4 @@
-"""The Snakemake workflow: lint, dry runs, bad config, and a real smoke run to results/tables.
+"""The Snakemake workflow: lint, dry runs, bad config, and a real smoke run to results/smoke/tables.
 
 Every run happens in a temporary working directory, so a user's data/ and results/ are never
 touched. The smoke run is real: Blender builds and exports vases, renders Freestyle sketches,
@@ -46,7 +46,7 @@ def test_lint_is_clean(tmp_path):
 
 
 def test_paper_profile_plans_the_whole_dag(tmp_path):
-    out = snakemake(tmp_path, "-n", "results/tables", "--config", "profile=paper",
+    out = snakemake(tmp_path, "-n", "results/paper/tables", "--config", "profile=paper",
                     "eval={variants: [joint, regression]}").stdout
     assert "runs/paper/vase/regression/checkpoints/best.ckpt" in out
     for rule in ("program", "sample", "export", "sketch", "points", "train", "simplify",
@@ -74,7 +74,7 @@ def test_bad_config_stops_before_any_job_with_one_line(tmp_path):
 @pytest.fixture(scope="module")
 def smoke_run(tmp_path_factory) -> Path:
     work = tmp_path_factory.mktemp("smoke")
-    snakemake(work, "-j2", "results/tables", *SMOKE)
+    snakemake(work, "-j2", "results/smoke/tables", *SMOKE)
     return work
 
 
@@ -97,7 +97,9 @@ def test_smoke_run_makes_the_dataset(smoke_run):
 
 
 def test_smoke_run_reaches_the_tables(smoke_run):
-    tables = smoke_run / "results" / "tables"
+    assert not (smoke_run / "results" / "tables").exists()     # the default profile's: never a smoke run's
+    tables = smoke_run / "results" / "smoke" / "tables"
+    assert (smoke_run / "results" / "smoke" / "report" / "index.html").exists()
     assert (tables / "README.md").exists()
     frame = pd.read_csv(tables / "pc_vs_sketch.csv", comment="#", index_col=0)
     assert np.isfinite(frame.loc["vase", "pc"]) and frame.loc["vase", "pc"] > 0

@@ -4,6 +4,7 @@ classes, without Lightning (so `geocode reconstruct` and `predict` start fast).
     load_model(checkpoint) -> GeoCodeNet  # eval mode, weights_only loading
     predict_classes(model, points=... | sketches=...) -> (N, P) int64
     predict(checkpoint, points=None, sketches=None) -> {"points": (N, P), "sketch": (N, P)}
+    ranked_prediction(model, recipe, modality, data, decode) -> (values, {parameter: top classes' values})
 """
 
 from __future__ import annotations
@@ -16,8 +17,11 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from geocode import paths
 from geocode.errors import UserError, one_line
 from geocode.models.network import GeoCodeNet
+
+TOP_CLASSES = 3   # discrete options the fit may choose among, per parameter
 
 
 class CheckpointError(UserError):
@@ -125,3 +129,45 @@ def predict(checkpoint: str | Path, points=None, sketches=None, batch_size: int 
     if sketches is not None:
         result["sketch"] = predict_classes(model, sketches=sketches, batch_size=batch_size)
     return result
+
+
+def default_checkpoint(cfg, domain: str) -> Path:
+    """The domain's joint model of the run in `cfg`: what `geocode reconstruct` uses."""
+    return paths.checkpoint_file(paths.run_dir(cfg, domain, "joint"))
+
+
+def check_checkpoint(model, recipe, checkpoint: Path, domain: str) -> None:
+    """The checkpoint's decoders must be this recipe's, else its classes mean other values."""
+    from geocode.models.heads import head_specs
+
+    if list(model.hparams.heads) != head_specs(recipe):
+        raise CheckpointError(checkpoint, f"this model was trained for other parameters than {domain!r}'s recipe",
+                              f"pass the checkpoint of a {domain} model")
+
+
+def ranked_prediction(model, recipe, modality: str, data: np.ndarray, decode: str, k: int = TOP_CLASSES):
+    """(raw values of the predicted classes (`decode`: eval.decode), {discrete parameter: its
+    k most probable raw values}) for one input of a modality (points (N, 3) or sketch (1, H, W))."""
+    return ranked_predictions(model, recipe, modality, data[None], decode, k)[0]
+
+
+def ranked_predictions(model, recipe, modality: str, batch: np.ndarray, decode: str,
+                       k: int = TOP_CLASSES) -> list[tuple[dict, dict]]:
+    """`ranked_prediction` for each input of a batch (B, N, 3) or (B, 1, H, W), in one pass."""
+    x = torch.as_tensor(batch, dtype=torch.float32)
+    with torch.inference_mode():
+        outputs = model(**{"points" if modality == "points" else "sketches": x})[modality]
+        best = model.classes(outputs, modality, decode).tolist()
+    out = []
+    for b, classes in enumerate(best):
+        start = recipe.values_from_classes(dict(zip(model.parameter_names, classes, strict=True)))
+        options = {}
+        for p in recipe.parameters:
+            logits = outputs[p.name][b]
+            if p.kind == "float" or len(logits) != p.n_classes:   # continuous, or regressed
+                continue
+            ranked = torch.argsort(logits, descending=True)[:k].tolist()
+            values = [float(p.classes[c]) if c < len(p.classes) else float(p.default) for c in ranked]
+            options[p.name] = list(dict.fromkeys(values))   # the existence class may repeat one
+        out.append((start, options))
+    return out

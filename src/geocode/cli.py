@@ -234,7 +234,7 @@ def parser() -> argparse.ArgumentParser:
     c.add_argument("--predictions", required=True, type=Path)
     c.add_argument("--shard", required=True, type=int, help="0 .. data.shards - 1")
     c.set_defaults(run=cmd_rebuild)
-    c = sub.add_parser("metrics", help=f"Chamfer distances and drop tests of rebuilt predictions ({step})")
+    c = sub.add_parser("metrics", help=f"Chamfer distances and drop tests of a variant's rebuilt predictions (model=<variant>; {step})")
     c.add_argument("--predictions", required=True, type=Path)
     c.add_argument("-o", "--output", required=True, type=output_file)
     c.set_defaults(run=cmd_metrics)
@@ -323,7 +323,7 @@ def parse_values(tokens: list[str]) -> dict[str, float]:
 
 
 def cmd_reconstruct(args):
-    from geocode.reconstruct import reconstruct
+    from geocode.tools.reconstruct import reconstruct
 
     cfg = step_config(args, f"domain={args.domain}")
     return reconstruct(cfg, args.domain, args.input, args.output, checkpoint=args.checkpoint,
@@ -331,9 +331,9 @@ def cmd_reconstruct(args):
 
 
 def cmd_mix(args):
-    from geocode import editing
     from geocode.outputs import Outputs
     from geocode.program import Program
+    from geocode.tools import editing
 
     with Outputs() as out:
         obj, shape_file = (out.reserve(args.output.with_suffix(s)) for s in (".obj", ".yaml"))
@@ -345,10 +345,10 @@ def cmd_mix(args):
 
 
 def cmd_interpolate(args):
-    from geocode import editing
     from geocode.blender.gallery import render_strip
     from geocode.outputs import Outputs
     from geocode.program import Program
+    from geocode.tools import editing
 
     with Outputs() as out:
         files = [[out.reserve(args.output / f"step-{i:02d}{s}") for s in (".obj", ".yaml")]
@@ -384,19 +384,19 @@ def cmd_gallery(args):
 
 def cmd_bench(args):
     if args.stage == "program":
-        from geocode.program import bench
+        from geocode.bench.program import bench_program
 
-        return bench(args.domain, n=args.n or 200, stability=args.stability)
+        return bench_program(args.domain, n=args.n or 200, stability=args.stability)
     if args.stage == "dataset":
-        from geocode.blender.bench import bench_dataset
+        from geocode.bench.dataset import bench_dataset
 
         return bench_dataset(args.domain)
     if args.stage == "train":
-        from geocode.train import bench_train
+        from geocode.bench.train import bench_train
 
         return bench_train()
     if args.stage == "epoch":
-        from geocode.models.bench import bench_epoch
+        from geocode.bench.train import bench_epoch
 
         if args.sketches > SKETCHES_PER_CLOUD * args.clouds:
             raise UserError(f"--sketches {args.sketches}", f"more than {SKETCHES_PER_CLOUD} per cloud "
@@ -404,11 +404,11 @@ def cmd_bench(args):
                             f"give at most {SKETCHES_PER_CLOUD * args.clouds}")
         return bench_epoch(args.clouds, args.sketches, device=args.device, n_points=args.points, variant=args.variant)
     if args.stage == "fit":
+        from geocode.bench.fit import bench_fit
         from geocode.config import compose
-        from geocode.fit import bench_fit
 
         return bench_fit(compose([f"domain={args.domain}", *args.overrides]), args.domain, n=args.n or 20)
-    from geocode.evaluation import bench_eval
+    from geocode.bench.evaluate import bench_eval
 
     return bench_eval(args.domain)
 
@@ -452,100 +452,72 @@ def cmd_config(args):
 
 
 def cmd_sample(args):
-    from geocode.variations import sample_step
+    from geocode.steps.dataset import sample_step
 
     return sample_step(step_config(args))
 
 
 def cmd_export(args):
-    from geocode.blender.export import export_shard
-    from geocode.config import data_dir
-    from geocode.recipe import load_recipe
+    from geocode.steps.dataset import export_step
 
-    cfg = step_config(args)
-    export_shard(data_dir(cfg, cfg.domain.name, args.split), args.shard, cfg.domain.name,
-                 recipe=load_recipe(cfg))
+    export_step(step_config(args), args.split, args.shard)
 
 
 def cmd_sketch(args):
-    from geocode.blender.sketch import sketch_shard
-    from geocode.config import data_dir
+    from geocode.steps.dataset import sketch_step
 
-    cfg = step_config(args)
-    s = cfg.data.sketch
-    sketch_shard(data_dir(cfg, cfg.domain.name, args.split), args.shard, cameras=s.cameras,
-                 size=s.size, elevation=s.elevation, seed=cfg.seed, jitter=s.jitter)
+    sketch_step(step_config(args), args.split, args.shard)
 
 
 def cmd_points(args):
-    from geocode.config import data_dir
-    from geocode.points import points_shard
+    from geocode.steps.dataset import points_step
 
-    cfg = step_config(args)
-    points_shard(data_dir(cfg, cfg.domain.name, args.split), args.shard, cfg.data.points, cfg.seed)
+    points_step(step_config(args), args.split, args.shard)
 
 
 def cmd_train(args):
-    from geocode.train import train
+    from geocode.steps.train import train
 
     cfg = step_config(args)
     return train(cfg, out_dir=args.out)
 
 
 def cmd_simplify(args):
-    from geocode.evaluation import simplify_step
+    from geocode.steps.evaluate import simplify_step
 
     cfg = step_config(args)
     return simplify_step(cfg, cfg.domain.name, args.factor)
 
 
 def cmd_predict(args):
-    from geocode.evaluation import predict_step
+    from geocode.steps.evaluate import predict_step
 
     cfg = step_config(args)
     return predict_step(cfg, cfg.domain.name, args.checkpoint, args.output)
 
 
 def cmd_rebuild(args):
-    from geocode.evaluation import rebuild_step
+    from geocode.steps.evaluate import rebuild_step
 
     cfg = step_config(args)
     return rebuild_step(cfg, cfg.domain.name, args.predictions, args.shard)
 
 
 def cmd_metrics(args):
-    from geocode.evaluation import metrics_step
+    from geocode.steps.evaluate import metrics_step
 
     cfg = step_config(args)
-    return metrics_step(cfg, cfg.domain.name, args.predictions, args.output)
+    return metrics_step(cfg, cfg.domain.name, cfg.model.variant, args.predictions, args.output)
 
 
 def cmd_tables(args):
-    import pandas as pd
+    from geocode.steps.tables import tables_step
 
-    from geocode.config import config_hash, max_epochs
-    from geocode.meshio import read_parquet
-    from geocode.tables import write_tables
-
-    cfg = step_config(args)
-    metrics = pd.concat([read_parquet(p, "rerun the metrics step") for p in args.metrics], ignore_index=True)
-    def epochs_of(variant):  # "16" or "16 (vase 20)": the common count, then the domains that differ
-        counts = {d: max_epochs(cfg, variant, d) for d in sorted(metrics[metrics.variant == variant].domain.unique())}
-        common = max_epochs(cfg, variant, "")
-        others = ", ".join(f"{d} {n}" for d, n in counts.items() if n != common)
-        return f"{common}" + (f" ({others})" if others else "")
-
-    epochs = ", ".join(f"{v} {epochs_of(v)}" for v in sorted(metrics.variant.unique()))
-    shapes = len(metrics[["domain", "id"]].drop_duplicates())    # ids repeat across domains
-    header = (f"profile {cfg.profile_name}, config {config_hash(cfg)}, {shapes} test shapes in "
-              f"{metrics.domain.nunique()} domains; max epochs: {epochs}")
-    cameras = [dict(c) for c in cfg.data.sketch.cameras]
-    names = write_tables(metrics, cameras, args.output, header)
-    return f"wrote {len(names)} tables to {args.output}: {', '.join(names)}"
+    return tables_step(step_config(args), args.metrics, args.output)
 
 
 def cmd_report(args):
-    from geocode.report import report_step
+    from geocode.steps.report import report_step
 
     return report_step(step_config(args), args.metrics, args.output)
 

@@ -4,33 +4,15 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
 import re
 from collections.abc import Sequence
-from pathlib import Path
 
 from omegaconf import DictConfig, ListConfig, OmegaConf
 
-from geocode.settings import MAPPINGS, NAME, SPLITS, ConfigError, Settings, check, documented_keys  # noqa: F401 (NAME, SPLITS re-exported)
+from geocode.paths import programs_dir, repo_root
+from geocode.settings import MAPPINGS, NAME, ConfigError, Settings, check, documented_keys  # noqa: F401 (NAME re-exported)
 
 KEYS_HINT = "see `geocode config --keys`"
-
-
-def repo_root() -> Path:
-    """The project folder holding conf/, programs/ and workflow/ (GEOCODE_ROOT overrides)."""
-    if root := os.environ.get("GEOCODE_ROOT"):
-        return Path(root).resolve()
-    return Path(__file__).resolve().parents[2]
-
-
-PROGRAMS_ENV = "GEOCODE_PROGRAMS"
-
-
-def programs_dir() -> Path:
-    """The shape programs: `$GEOCODE_PROGRAMS`, else `programs/` at the repository root."""
-    if override := os.environ.get(PROGRAMS_ENV):
-        return Path(override)
-    return repo_root() / "programs"
 
 
 def registry() -> list[str]:
@@ -38,10 +20,6 @@ def registry() -> list[str]:
     (names starting with `_` are helpers, not programs)."""
     return sorted(p.stem for p in programs_dir().glob("*.py")
                   if not p.stem.startswith("_") and p.with_suffix(".yaml").exists())
-
-
-def recipe_path(domain: str) -> Path:
-    return programs_dir() / f"{domain}.yaml"
 
 
 def _register_domains() -> None:
@@ -132,7 +110,7 @@ def _check_known(cfg: DictConfig) -> None:
 
 
 def _check_fit(cfg: DictConfig) -> None:
-    from geocode.evaluation import conditions
+    from geocode.conditions import conditions
 
     clouds = [c["condition"] for c in conditions(cfg) if c["modality"] == "pc"]
     for name in cfg.eval.fit:
@@ -202,20 +180,3 @@ def max_epochs(cfg: DictConfig, variant: str, domain: str | None = None) -> int:
     epochs = (cfg.train.domain_epochs or {}).get(cfg.domain.name if domain is None else domain, cfg.train.max_epochs)
     share = float(cfg.train.variant_epochs.get(variant, 1.0))
     return max(1, round(int(epochs) * share))
-
-
-def simplified_split(factor: int) -> str:
-    """The decimated copy of the test split that keeps 1/factor of the faces."""
-    return f"test-s{factor}"
-
-
-def splits(cfg: DictConfig) -> list[str]:
-    return [*SPLITS, *(simplified_split(f) for f in cfg.eval.simplify)]
-
-
-def data_dir(cfg: DictConfig, domain: str, split: str) -> Path:
-    """<paths.data>/<domain>/<split>; a split from outside the known set is refused, so that
-    no user-given name leads out of the data folder."""
-    if split not in splits(cfg):
-        raise ConfigError(f"split {split!r}", "unknown", f"use one of {', '.join(splits(cfg))}")
-    return Path(cfg.paths.data) / domain / split

@@ -267,47 +267,9 @@ def network_starts(model, recipe, cloud: np.ndarray, turns: int, decode: str,
                    top: int = 3) -> list[Start]:
     """The network's answer for the input turned by each of `turns` even angles about +Z
     (one batch): a `Start` each, whose pose turns the program's shape back onto the input."""
-    from geocode.reconstruct import ranked_predictions
+    from geocode.checkpoints import ranked_predictions
 
     angles = [2 * math.pi * k / turns for k in range(turns)]
     batch = np.stack([turn_about_z(cloud, -a) for a in angles]).astype(np.float32)
     ranked = ranked_predictions(model, recipe, "points", batch, decode, top)
     return [Start(values, options, turn=a) for (values, options), a in zip(ranked, angles, strict=True)]
-
-
-def bench_fit(cfg, domain: str, n: int = 10) -> dict:
-    """Fit the domain's trained joint model's predictions to the clean test clouds of the
-    run in `cfg` (as `geocode reconstruct` does), and measure against the ground truth."""
-    import statistics
-
-    from geocode.checkpoints import load_model
-    from geocode.config import data_dir
-    from geocode.evaluation import conditions, point_input, test_ids
-    from geocode.meshio import read_obj
-    from geocode.metrics import chamfer_meshes
-    from geocode.program import Program
-    from geocode.reconstruct import check_checkpoint, default_checkpoint, ranked_prediction
-
-    program = Program.load(domain)
-    recipe = program.recipe()
-    checkpoint = default_checkpoint(cfg, domain)
-    model = load_model(checkpoint)
-    check_checkpoint(model, recipe, checkpoint, domain)
-    clean = next(c for c in conditions(cfg) if c["condition"] == "pc")
-    before, after, seconds, evaluations = [], [], [], 0
-    for shape_id in test_ids(cfg, domain)[:n]:
-        cloud = point_input(cfg, domain, clean, shape_id)
-        gt = read_obj(data_dir(cfg, domain, "test") / "shapes" / f"{shape_id}.obj")
-        start, options = ranked_prediction(model, recipe, "points", cloud, cfg.eval.decode)
-        result = fit(program, recipe, [Start(start, options)], cloud, cfg.eval.fit_budget,
-                     seed=cfg.seed, pose=False)
-        for values, out in ((program.check(start), before), (result.values, after)):
-            rng = np.random.default_rng(0)
-            out.append(chamfer_meshes(program.evaluate(values), gt, n=cfg.eval.chamfer_points, rng=rng))
-        seconds.append(result.seconds)
-        evaluations += result.evaluations
-    return {"domain": domain, "shapes": len(seconds), "budget": cfg.eval.fit_budget,
-            "evals_per_s": round(evaluations / sum(seconds), 1),
-            "chamfer_before": round(float(np.mean(before)), 6),
-            "chamfer_after": round(float(np.mean(after)), 6),
-            "seconds_per_shape": round(statistics.median(seconds), 2)}

@@ -8,7 +8,6 @@ from scipy.spatial import cKDTree
 
 from geocode.meshio import normalise_unit_sphere
 from geocode.points import sample_surface
-from geocode.timing import seconds_per_call
 
 
 def chamfer(a_points: np.ndarray, b_points: np.ndarray, workers: int = -1) -> float:
@@ -39,10 +38,3 @@ def chamfer_meshes(
     a = sample_surface(normalise_unit_sphere(pred), n, rng)
     b = sample_surface(normalise_unit_sphere(gt), n, rng)
     return chamfer(a, b)
-
-
-def bench_chamfer(n: int = 10000, repeats: int = 20) -> float:
-    """Milliseconds per chamfer() of two n-point clouds (median of `repeats`)."""
-    rng = np.random.default_rng(0)
-    a, b = rng.normal(size=(2, n, 3)).astype(np.float32)
-    return seconds_per_call(lambda: chamfer(a, b), repeats) * 1000

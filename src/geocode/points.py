@@ -13,11 +13,11 @@ import numba
 import numpy as np
 import trimesh
 
-from geocode import meshio
+from geocode import meshio, paths
 from geocode.errors import UserError, one_line
 from geocode.meshio import REDO_EXPORT
 from geocode.seeds import generator
-from geocode.timing import Progress, seconds_per_call
+from geocode.timing import Progress
 
 log = logging.getLogger(__name__)
 
@@ -155,6 +155,19 @@ def load_clouds(path: str | Path) -> dict[str, np.ndarray]:
         raise UserError(path, f"not a readable point-cloud .npz ({one_line(exc)})", "delete it and rerun the points step") from None
 
 
+def eval_pick(n_random: int, n_pick: int, seed: int, shape_id: str) -> np.ndarray:
+    """The fixed evaluation choice of `n_pick` of a shape's random points (sorted indices)."""
+    return np.sort(generator(seed, "eval-cloud", shape_id).permutation(n_random)[:n_pick])
+
+
+def eval_cloud(clouds: Mapping[str, np.ndarray], n_random: int, seed: int, shape_id: str) -> np.ndarray:
+    """The evaluation cloud: all FPS points + a fixed draw, from (seed, id), of `n_random` random
+    points. Shapes: fps (F, 3), random (R, 3) -> (F + n_random, 3) float32."""
+    rand = np.asarray(clouds["random"], dtype=np.float32)
+    pick = eval_pick(len(rand), n_random, seed, shape_id)
+    return np.concatenate([np.asarray(clouds["fps"], dtype=np.float32), rand[pick]])
+
+
 def add_noise(points: np.ndarray, sigma: float, rng: np.random.Generator) -> np.ndarray:
     """points + N(0, sigma^2) per coordinate (sigma in unit-sphere units), float32."""
     pts = np.asarray(points, dtype=np.float32)
@@ -205,35 +218,20 @@ def points_shard(
     rng is seeded from (seed, id), so reruns and any shard order give identical bytes.
     """
     split_dir = Path(split_dir)
-    ids_file = split_dir / "done" / f"export-{shard}.txt"
+    ids_file = paths.done_file(split_dir, "export", shard)
     if not ids_file.exists():
         raise UserError(ids_file, "missing", f"run the export step for shard {shard} first")
     ids = [line.strip() for line in ids_file.read_text().splitlines() if line.strip()]
     sizes = {k: int(cfg_points[k]) for k in ("surface", "fps", "random")}
     progress = Progress(f"points shard {shard}", len(ids), log)
     for shape_id in ids:
-        out = split_dir / "points" / f"{shape_id}.npz"
+        out = paths.cloud_file(split_dir, shape_id)
         if not _complete(out):
-            mesh = meshio.read_obj(split_dir / "shapes" / f"{shape_id}.obj", REDO_EXPORT)
+            mesh = meshio.read_obj(paths.shape_file(paths.shapes_dir(split_dir), shape_id), REDO_EXPORT)
             rng = generator(seed, "points", shape_id)
             save_clouds(out, make_clouds(mesh, **sizes, rng=rng))
         progress.step()
     progress.finish()
-    done = split_dir / "done" / f"points-{shard}.txt"
+    done = paths.done_file(split_dir, "points", shard)
     meshio.write_text(done, "".join(f"{i}\n" for i in ids))
     return done
-
-
-def bench_mesh(sections: int = 64, rings: int = 80) -> trimesh.Trimesh:
-    """A closed vase-like surface of revolution with about 2 * sections * rings faces."""
-    z = np.linspace(0.0, 1.0, rings)
-    r = 0.25 + 0.12 * np.sin(2 * np.pi * z) + 0.05 * np.cos(6 * np.pi * z)
-    profile = np.column_stack([np.r_[0.0, r, 0.0], np.r_[0.0, z, 1.0]])
-    return trimesh.creation.revolve(profile, sections=sections)
-
-
-def bench_clouds(n: int = 50) -> float:
-    """Clouds per second for make_clouds at the paper's sizes on a ~10K-face mesh."""
-    mesh = bench_mesh()
-    rng = np.random.default_rng(0)
-    return 1.0 / seconds_per_call(lambda: make_clouds(mesh, rng=rng), n)

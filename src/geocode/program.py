@@ -14,8 +14,6 @@ import hashlib
 import importlib.util
 import math
 import os
-import statistics
-import tempfile
 from collections.abc import Mapping
 from pathlib import Path
 from types import ModuleType
@@ -23,11 +21,11 @@ from types import ModuleType
 import numpy as np
 import trimesh
 
-from geocode.config import PROGRAMS_ENV, programs_dir, recipe_path, registry  # noqa: F401 (PROGRAMS_ENV, registry re-exported)
+from geocode.config import registry  # noqa: F401 (re-exported)
 from geocode.errors import UserError
 from geocode.expr import Expr
+from geocode.paths import program_path, recipe_path
 from geocode.recipe import Parameter
-from geocode.timing import Stopwatch
 
 AXES = ("x", "y", "z")
 _KINDS = {"NodeSocketBool": "bool", "NodeSocketInt": "int", "NodeSocketFloat": "float",
@@ -38,7 +36,7 @@ _LOADED: dict[str, Program] = {}  # by program file: one build per process
 
 
 def _import_program(domain: str) -> ModuleType:
-    path = programs_dir() / f"{domain}.py"
+    path = program_path(domain)
     if not path.exists():
         known = ", ".join(registry()) or "none"
         raise UserError(f"{path}: no such program; known domains: {known}")
@@ -62,7 +60,7 @@ class Program:
     @classmethod
     def load(cls, domain: str) -> Program:
         """The program of `domain`; loaded once per process and rebuilt after a reset."""
-        key = str((programs_dir() / f"{domain}.py").resolve())
+        key = str((program_path(domain)).resolve())
         program = _LOADED.get(key)
         if program is None:
             program = _LOADED[key] = cls(domain, _import_program(domain))
@@ -158,7 +156,7 @@ class Program:
     def manifest(self) -> dict:
         """What the steps without Blender know of the program: its parameters, their visibility
         rules, whether it hangs, and the fingerprint of its geometry (a changed program has
-        another manifest, so training starts afresh: `geocode.train.program_key`)."""
+        another manifest, so training starts afresh: `geocode.steps.train.program_key`)."""
         rules = self.visibility()
         return {"domain": self.domain, "hangs": self.hangs, "geometry": self.fingerprint(), "parameters": [
             {"name": p.name, "kind": p.kind, "min": p.min, "max": p.max, "default": p.default,
@@ -273,31 +271,3 @@ def part_mesh(mesh: trimesh.Trimesh, *labels: int) -> trimesh.Trimesh:
     """The sub-mesh of the faces of an evaluated `mesh` labelled with any of `labels`."""
     faces = np.flatnonzero(np.isin(mesh.metadata["part"], labels))
     return mesh.submesh([faces], append=True)
-
-
-def bench(domain: str, n: int = 200, seed: int = 0, stability: bool = False) -> dict:
-    """Random shapes per second (evaluation + OBJ export to a temp dir), the median face
-    count, and the fraction of shapes with loose parts or non-finite vertices; with
-    `stability`, also the fraction that pass the drop test (after the timing)."""
-    from geocode.meshio import write_obj
-    from geocode.stability import is_stable, loose_parts
-
-    program = Program.load(domain)
-    rng = np.random.default_rng(seed)
-    samples = [program.random_values(rng) for _ in range(n)]
-    meshes = []
-    with tempfile.TemporaryDirectory() as tmp:
-        with Stopwatch() as clock:
-            for i, values in enumerate(samples):
-                mesh = program.evaluate(values)
-                write_obj(Path(tmp) / f"{i:06d}.obj", mesh)
-                meshes.append(mesh)
-    elapsed = clock.seconds
-    loose = sum(loose_parts(mesh) > 0 for mesh in meshes)
-    nonfinite = sum(not np.isfinite(mesh.vertices).all() for mesh in meshes)
-    result = {"n": n, "shapes_per_s": round(n / elapsed, 2),
-              "median_faces": int(statistics.median(len(m.faces) for m in meshes)),
-              "loose_part_rate": loose / n, "nonfinite_rate": nonfinite / n}
-    if stability:
-        result["stable_rate"] = sum(is_stable(mesh) for mesh in meshes) / n
-    return result

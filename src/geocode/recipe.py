@@ -27,6 +27,8 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 
 from geocode.errors import UserError
 from geocode.expr import Expr, ExprError, parse
+from geocode.meshio import read_parquet, write_parquet
+from geocode.paths import manifest_path, recipe_path
 
 __all__ = [
     "KINDS",
@@ -37,7 +39,9 @@ __all__ = [
     "load_manifest",
     "parse_manifest",
     "load_recipe",
-    "manifest_path",
+    "META_COLUMNS",
+    "save_recipes",
+    "load_recipes",
 ]
 
 KINDS = ("bool", "int", "float")
@@ -611,15 +615,30 @@ _UniqueKeyLoader.add_constructor(
 )
 
 
-def manifest_path(cfg, domain: str) -> Path:
-    """The manifest that `geocode program build` writes for `domain` under the build folder."""
-    return Path(cfg.paths.build) / "programs" / f"{domain}.manifest.json"
-
-
 def load_recipe(cfg) -> Recipe:
     """The recipe of cfg.domain (`<programs>/<domain>.yaml`), checked against the parameters
     in its program's manifest."""
-    from geocode.config import recipe_path
-
     parameters, visibility = load_manifest(manifest_path(cfg, cfg.domain.name))
     return Recipe.load(recipe_path(cfg.domain.name), parameters, visibility)
+
+
+# -- a split's recipes table: one row per shape, its recipe values and the sampler's columns --
+
+META_COLUMNS = ("id", "shard", "forced", "forced_class")
+
+
+def save_recipes(frame: pd.DataFrame, path: str | os.PathLike) -> None:
+    """Write a split's `recipes.parquet` atomically (a crash never leaves a partial file)."""
+    missing = [c for c in META_COLUMNS if c not in frame]
+    if missing:
+        raise ValueError(f"recipes frame lacks column {missing[0]!r}")
+    write_parquet(path, frame.reset_index(drop=True))
+
+
+def load_recipes(path: str | os.PathLike) -> pd.DataFrame:
+    """Read `recipes.parquet`; a missing or broken file raises ValueError naming it."""
+    frame = read_parquet(path, "run the sample step")
+    missing = [c for c in META_COLUMNS if c not in frame]
+    if missing:
+        raise UserError(path, f"no column {missing[0]!r}", "rerun the sample step")
+    return frame

@@ -18,8 +18,8 @@ from typing import Annotated, Literal, Union
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from geocode.errors import UserError
+from geocode.paths import SPLITS
 
-SPLITS = ("train", "val", "test")
 NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]*")  # stays one path component: no /, not . or ..
 
 

@@ -15,8 +15,6 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
-from geocode.timing import seconds_per_call
-
 # ---------------------------------------------------------------------------------------------
 # Loose parts
 # ---------------------------------------------------------------------------------------------
@@ -653,47 +651,3 @@ def is_stable(mesh: trimesh.Trimesh, cfg: DropConfig | None = None, tol: float =
     if loose_parts(mesh, tol) > 0:
         return False
     return _drop(mesh, cfg or DropConfig())["standing"]
-
-
-# ---------------------------------------------------------------------------------------------
-# Benchmarks
-# ---------------------------------------------------------------------------------------------
-
-
-def bench_parts_mesh(seed: int = 0, detached: int = 0) -> trimesh.Trimesh:
-    """About 10K faces in 10 closed components: a sphere (5120 faces) pierced by nine tubes
-    (512 faces each) in random directions; the first `detached` tubes float free."""
-    rng = np.random.default_rng(seed)
-    parts = [trimesh.creation.icosphere(subdivisions=4, radius=0.5)]
-    for i in range(9):
-        axis = rng.normal(size=3)
-        axis /= np.linalg.norm(axis)
-        tube = trimesh.creation.cylinder(0.05, 0.6, sections=128)
-        pose = trimesh.geometry.align_vectors((0, 0, 1), axis)
-        pose[:3, 3] = axis * (1.5 if i < detached else 0.7)
-        tube.apply_transform(pose)
-        parts.append(tube)
-    return trimesh.util.concatenate(parts)
-
-
-def bench_loose_parts(repeats: int = 20) -> dict[str, float]:
-    """Milliseconds per loose_parts() on bench_parts_mesh, attached and with one tube loose."""
-    attached, loose = bench_parts_mesh(), bench_parts_mesh(detached=1)
-    return {
-        "attached_ms": seconds_per_call(lambda: loose_parts(attached), repeats) * 1000,
-        "one_loose_ms": seconds_per_call(lambda: loose_parts(loose), repeats) * 1000,
-    }
-
-
-def bench_drop_test(repeats: int = 5) -> dict[str, float]:
-    """Seconds per drop_test() on a ~10K-face vase (points.bench_mesh) standing upright, and
-    on the same vase tipped 45 degrees so that it falls (the longer, unsettled case)."""
-    from geocode.points import bench_mesh
-
-    vase = bench_mesh()
-    tipped = vase.copy()
-    tipped.apply_transform(trimesh.transformations.rotation_matrix(np.radians(45), (1, 0, 0)))
-    return {
-        "standing_s": seconds_per_call(lambda: drop_test(vase), repeats),
-        "falling_s": seconds_per_call(lambda: drop_test(tipped), repeats),
-    }

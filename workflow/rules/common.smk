@@ -1,5 +1,5 @@
-# Config and helpers common to all rules. Snakemake owns paths; Hydra owns everything else:
-# each --config key=value is handed to every step as the same Hydra override.
+# Config and helpers common to all rules. Every path comes from geocode.paths, the layout the
+# Python steps use too; each --config key=value is handed to every step as the same Hydra override.
 import os
 import shlex
 import sys
@@ -7,7 +7,8 @@ from pathlib import Path
 
 from snakemake.exceptions import WorkflowError
 
-from geocode.config import ConfigError, compose, config_hash, domains, programs_dir, variants
+from geocode import paths
+from geocode.config import ConfigError, compose, domains, variants
 
 envvars:
     "PATH",
@@ -37,20 +38,15 @@ try:
 except ConfigError as exc:
     raise WorkflowError(f"--config: {exc}") from None
 
-CONFIG_HASH = config_hash(CFG)
 DOMAINS = domains(CFG)
-SPLITS = ["train", "val", "test"]
 SHARDS = list(range(CFG.data.shards))
-DATA = CFG.paths.data
-RUNS = CFG.paths.runs
-BUILD = CFG.paths.build
-# A job logs under logs/<the folder it writes or, for tables and report, reads>: logs/data/mini/
-# sketch/, logs/runs/mini/train/; an experiment with its own paths.runs keeps its own logs.
-PROGRAMS = programs_dir()
 # (domain, variant) of every model trained: eval.variants for each domain, plus its ablations.
 RUNS_TRAINED = [(d, v) for d in DOMAINS for v in variants(CFG, d)]
 # A GPU per training job where the config asks for one (accelerator=auto declares none).
 GPUS = 1 if CFG.train.accelerator in ("gpu", "cuda") else 0
+# The results of this profile: results/ for the default one, results/<profile>/ for the others.
+TABLES = str(paths.tables_dir(CFG))
+REPORT = str(paths.report_index(CFG))
 
 wildcard_constraints:
     domain="|".join(DOMAINS) or "none",
@@ -66,14 +62,46 @@ def step_args(domain):
 
 
 def manifest(domain):
-    return f"{BUILD}/programs/{domain}.manifest.json"
+    return str(paths.manifest_path(CFG, domain))
 
 
-def done_files(stage, domain, splits=SPLITS):
-    return [f"{DATA}/{domain}/{split}/done/{stage}-{shard}.txt" for split in splits for shard in SHARDS]
+def split_folder(domain, name):
+    """The folder of one split of a domain's dataset (wildcards stay wildcards)."""
+    return paths.split_dir(CFG, domain, name)
+
+
+def done_files(stage, domain, splits=paths.SPLITS):
+    return [str(paths.done_file(split_folder(domain, s), stage, shard)) for s in splits for shard in SHARDS]
 
 
 def eval_inputs(domain):
     """Sketches and clouds of the test split and of its simplified copies."""
-    splits = ["test"] + [f"test-s{f}" for f in CFG.eval.simplify]
+    splits = ["test"] + [paths.simplified_split(f) for f in CFG.eval.simplify]
     return done_files("sketch", domain, splits) + done_files("points", domain, splits)
+
+
+def run_folder(domain, variant):
+    return paths.run_dir(CFG, domain, variant)
+
+
+def best_checkpoint(domain, variant):
+    return str(paths.checkpoint_file(run_folder(domain, variant)))
+
+
+def predictions(domain, variant):
+    return str(paths.predictions_file(run_folder(domain, variant)))
+
+
+def rebuilt_done(domain, variant, shard):
+    return str(paths.rebuilt_done(paths.rebuilt_dir(predictions(domain, variant)), shard))
+
+
+def metrics(domain, variant):
+    return str(paths.metrics_file(run_folder(domain, variant)))
+
+
+def log_path(folder, rule, name=None):
+    """A job logs under logs/<the folder it writes or, for tables and report, reads>:
+    logs/data/mini/sketch/, logs/runs/mini/train/; an experiment with its own paths.runs keeps
+    its own logs."""
+    return str(paths.log_file(folder, rule, name))

@@ -5,11 +5,11 @@
 rule sample:
     input:
         manifest=lambda w: manifest(w.domain),
-        recipe=f"{PROGRAMS}/{{domain}}.yaml",
+        recipe=str(paths.recipe_path("{domain}")),
     output:
-        expand(f"{DATA}/{{{{domain}}}}/{{split}}/recipes.parquet", split=SPLITS),
+        [str(paths.recipes_file(split_folder("{domain}", s))) for s in paths.SPLITS],
     log:
-        f"logs/{DATA}/sample/{{domain}}.log",
+        log_path(CFG.paths.data, "sample", "{domain}"),
     params:
         args=lambda w: step_args(w.domain),
     threads: 1
@@ -21,14 +21,14 @@ rule sample:
 
 rule export:
     input:
-        recipes=f"{DATA}/{{domain}}/{{split}}/recipes.parquet",
+        recipes=str(paths.recipes_file(split_folder("{domain}", "{split}"))),
         manifest=lambda w: manifest(w.domain),
     output:
-        f"{DATA}/{{domain}}/{{split}}/done/export-{{shard}}.txt",
+        str(paths.done_file(split_folder("{domain}", "{split}"), "export", "{shard}")),
     wildcard_constraints:
         split="train|val|test",  # test-s<factor> copies come from rule simplify
     log:
-        f"logs/{DATA}/export/{{domain}}-{{split}}-{{shard}}.log",
+        log_path(CFG.paths.data, "export", "{domain}-{split}-{shard}"),
     params:
         args=lambda w: step_args(w.domain),
     threads: 1
@@ -40,11 +40,11 @@ rule export:
 
 rule sketch:
     input:
-        f"{DATA}/{{domain}}/{{split}}/done/export-{{shard}}.txt",
+        str(paths.done_file(split_folder("{domain}", "{split}"), "export", "{shard}")),
     output:
-        f"{DATA}/{{domain}}/{{split}}/done/sketch-{{shard}}.txt",
+        str(paths.done_file(split_folder("{domain}", "{split}"), "sketch", "{shard}")),
     log:
-        f"logs/{DATA}/sketch/{{domain}}-{{split}}-{{shard}}.log",
+        log_path(CFG.paths.data, "sketch", "{domain}-{split}-{shard}"),
     params:
         args=lambda w: step_args(w.domain),
     threads: 1
@@ -56,11 +56,11 @@ rule sketch:
 
 rule points:
     input:
-        f"{DATA}/{{domain}}/{{split}}/done/export-{{shard}}.txt",
+        str(paths.done_file(split_folder("{domain}", "{split}"), "export", "{shard}")),
     output:
-        f"{DATA}/{{domain}}/{{split}}/done/points-{{shard}}.txt",
+        str(paths.done_file(split_folder("{domain}", "{split}"), "points", "{shard}")),
     log:
-        f"logs/{DATA}/points/{{domain}}-{{split}}-{{shard}}.log",
+        log_path(CFG.paths.data, "points", "{domain}-{split}-{shard}"),
     params:
         args=lambda w: step_args(w.domain),
     threads: 1
@@ -75,4 +75,4 @@ rule dataset:
     input:
         lambda w: done_files("sketch", w.domain) + done_files("points", w.domain),
     output:
-        touch(f"{DATA}/{{domain}}/dataset.done"),
+        touch(str(paths.dataset_done(CFG, "{domain}"))),

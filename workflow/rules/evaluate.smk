@@ -7,10 +7,11 @@ rule simplify:
     input:
         lambda w: done_files("export", w.domain, ["test"]),
     output:
-        recipes=f"{DATA}/{{domain}}/test-s{{factor}}/recipes.parquet",
-        done=expand(f"{DATA}/{{{{domain}}}}/test-s{{{{factor}}}}/done/export-{{shard}}.txt", shard=SHARDS),
+        recipes=str(paths.recipes_file(split_folder("{domain}", paths.simplified_split("{factor}")))),
+        done=[str(paths.done_file(split_folder("{domain}", paths.simplified_split("{factor}")), "export", shard))
+              for shard in SHARDS],
     log:
-        f"logs/{DATA}/simplify/{{domain}}-{{factor}}.log",
+        log_path(CFG.paths.data, "simplify", "{domain}-{factor}"),
     params:
         args=lambda w: step_args(w.domain),
     threads: 1
@@ -22,12 +23,12 @@ rule simplify:
 
 rule predict:
     input:
-        checkpoint=f"{RUNS}/{{domain}}/{{variant}}/checkpoints/best.ckpt",
+        checkpoint=best_checkpoint("{domain}", "{variant}"),
         data=lambda w: eval_inputs(w.domain),
     output:
-        f"{RUNS}/{{domain}}/{{variant}}/eval/predictions.parquet",
+        predictions("{domain}", "{variant}"),
     log:
-        f"logs/{RUNS}/predict/{{domain}}-{{variant}}.log",
+        log_path(CFG.paths.runs, "predict", "{domain}-{variant}"),
     params:
         args=lambda w: step_args(w.domain),
     threads: 2
@@ -39,11 +40,11 @@ rule predict:
 
 rule rebuild:
     input:
-        f"{RUNS}/{{domain}}/{{variant}}/eval/predictions.parquet",
+        predictions("{domain}", "{variant}"),
     output:
-        f"{RUNS}/{{domain}}/{{variant}}/eval/rebuilt/done-{{shard}}.txt",
+        rebuilt_done("{domain}", "{variant}", "{shard}"),
     log:
-        f"logs/{RUNS}/rebuild/{{domain}}-{{variant}}-{{shard}}.log",
+        log_path(CFG.paths.runs, "rebuild", "{domain}-{variant}-{shard}"),
     params:
         args=lambda w: step_args(w.domain),
     threads: 1
@@ -55,17 +56,17 @@ rule rebuild:
 
 rule metrics:
     input:
-        predictions=f"{RUNS}/{{domain}}/{{variant}}/eval/predictions.parquet",
-        rebuilt=expand(f"{RUNS}/{{{{domain}}}}/{{{{variant}}}}/eval/rebuilt/done-{{shard}}.txt", shard=SHARDS),
+        predictions=predictions("{domain}", "{variant}"),
+        rebuilt=[rebuilt_done("{domain}", "{variant}", shard) for shard in SHARDS],
         manifest=lambda w: manifest(w.domain),  # says whether the shapes hang (no drop test)
     output:
-        f"{RUNS}/{{domain}}/{{variant}}/eval/metrics.parquet",
+        metrics("{domain}", "{variant}"),
     log:
-        f"logs/{RUNS}/metrics/{{domain}}-{{variant}}.log",
+        log_path(CFG.paths.runs, "metrics", "{domain}-{variant}"),
     params:
         args=lambda w: step_args(w.domain),
     threads: 1
     resources:
         mem_mb=4000,
     shell:
-        "geocode metrics --predictions {input.predictions} -o {output} {params.args} > {log} 2>&1"
+        "geocode metrics --predictions {input.predictions} -o {output} {params.args} model={wildcards.variant} > {log} 2>&1"

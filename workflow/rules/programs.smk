@@ -3,13 +3,13 @@
 
 rule program:
     input:
-        program=f"{PROGRAMS}/{{domain}}.py",
-        recipe=f"{PROGRAMS}/{{domain}}.yaml",
+        program=str(paths.program_path("{domain}")),
+        recipe=str(paths.recipe_path("{domain}")),
     output:
-        blend=f"{BUILD}/programs/{{domain}}.blend",
-        manifest=f"{BUILD}/programs/{{domain}}.manifest.json",
+        blend=str(paths.blend_path(CFG, "{domain}")),
+        manifest=manifest("{domain}"),
     log:
-        f"logs/{BUILD}/program/{{domain}}.log",
+        log_path(CFG.paths.build, "program", "{domain}"),
     threads: 1
     resources:
         mem_mb=2000,

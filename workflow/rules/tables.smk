@@ -1,14 +1,15 @@
-# Every domain's metrics -> results/tables/ (CSV, Markdown, LaTeX; an index README.md).
+# Every domain's metrics -> the tables (CSV, Markdown, LaTeX; an index README.md) and the report,
+# under paths.results: results/ for the default profile, results/<profile>/ for the others.
 
 
 rule tables:
     input:
-        metrics=[f"{RUNS}/{domain}/{variant}/eval/metrics.parquet" for domain, variant in RUNS_TRAINED],
-        report="results/report/index.html",
+        metrics=[metrics(domain, variant) for domain, variant in RUNS_TRAINED],
+        report=REPORT,
     output:
-        directory("results/tables"),
+        directory(TABLES),
     log:
-        f"logs/{RUNS}/tables.log",
+        log_path(CFG.paths.runs, "tables"),
     params:
         args=" ".join(shlex.quote(o) for o in OVERRIDES),
     threads: 1
@@ -21,15 +22,16 @@ rule tables:
 rule report:
     """An HTML page with figures: inputs, ground truth and rebuilt predictions, side by side."""
     input:
-        expand(f"{RUNS}/{{domain}}/joint/eval/metrics.parquet", domain=DOMAINS),
+        [metrics(domain, "joint") for domain in DOMAINS],
     output:
-        "results/report/index.html",
+        REPORT,
     log:
-        f"logs/{RUNS}/report.log",
+        log_path(CFG.paths.runs, "report"),
     params:
         args=" ".join(shlex.quote(o) for o in OVERRIDES),
+        out=str(paths.report_dir(CFG)),
     threads: 1
     resources:
         mem_mb=3000,
     shell:
-        "geocode report {params.args} -o results/report --metrics {input} > {log} 2>&1"
+        "geocode report {params.args} -o {params.out} --metrics {input} > {log} 2>&1"

@@ -4,15 +4,15 @@
 
 rule train:
     input:
-        dataset=f"{DATA}/{{domain}}/dataset.done",
+        dataset=str(paths.dataset_done(CFG, "{domain}")),
         manifest=lambda w: manifest(w.domain),
     output:
-        f"{RUNS}/{{domain}}/{{variant}}/checkpoints/best.ckpt",
+        best_checkpoint("{domain}", "{variant}"),
     log:
-        f"logs/{RUNS}/train/{{domain}}-{{variant}}.log",
+        log_path(CFG.paths.runs, "train", "{domain}-{variant}"),
     params:
         args=lambda w: step_args(w.domain),
-        out=f"{RUNS}/{{domain}}/{{variant}}",
+        out=str(run_folder("{domain}", "{variant}")),
     threads: 2
     resources:
         mem_mb=8000,

@@ -6,16 +6,15 @@ One process per shard: the program is loaded once and re-evaluated for every row
 from __future__ import annotations
 
 import logging
-import tempfile
 from collections.abc import Iterator, Mapping
 from pathlib import Path
 
 import numpy as np
 import yaml
 
-from geocode import meshio
+from geocode import meshio, paths
 from geocode.errors import UserError, one_line
-from geocode.timing import Progress, Stopwatch
+from geocode.timing import Progress
 
 log = logging.getLogger(__name__)
 
@@ -36,7 +35,7 @@ def unit_mesh(program, values: Mapping[str, float]):
 def shard_rows(recipes: str | Path, shard: int) -> Iterator[tuple[str, dict[str, float]]]:
     """(id, raw values) for the rows of `recipes.parquet` with `shard == shard`, in file order
     (the sampler's bookkeeping columns are not parameter values)."""
-    from geocode.variations import META_COLUMNS, load_recipes
+    from geocode.recipe import META_COLUMNS, load_recipes
 
     frame = load_recipes(recipes)
     frame = frame[frame["shard"] == shard]
@@ -63,7 +62,7 @@ def part_labels(mesh) -> np.ndarray:
 def is_complete(shapes_dir: Path, shape_id: str) -> bool:
     """All four files are there and none is empty (a rerun redoes a shape with a broken one)."""
     for suffix in SUFFIXES:
-        path = shapes_dir / f"{shape_id}{suffix}"
+        path = paths.shape_file(shapes_dir, shape_id, suffix)
         if not path.is_file() or path.stat().st_size == 0:
             return False
     return True
@@ -79,13 +78,13 @@ def export_shape(program, recipe, shape_id: str, values: Mapping[str, float], sh
         raise UserError(shape_id, one_line(exc, 300), "fix the program or narrow its recipe") from None
     parts = part_labels(mesh)
     yaml_dump = lambda d: yaml.safe_dump(d, sort_keys=False)  # noqa: E731
-    meshio.write_text(shapes_dir / f"{shape_id}.yaml", yaml_dump(typed(program.parameters, full)))
+    meshio.write_text(paths.shape_file(shapes_dir, shape_id, ".yaml"), yaml_dump(typed(program.parameters, full)))
     labels = {k: float(v) for k, v in recipe.labels(values).items()}
-    meshio.write_text(shapes_dir / f"{shape_id}.labels.yaml", yaml_dump(labels))
-    with meshio.atomic_path(shapes_dir / f"{shape_id}.parts.npy") as tmp:
+    meshio.write_text(paths.shape_file(shapes_dir, shape_id, ".labels.yaml"), yaml_dump(labels))
+    with meshio.atomic_path(paths.shape_file(shapes_dir, shape_id, ".parts.npy")) as tmp:
         with open(tmp, "wb") as f:   # a file object: np.save would append .npy to a path
             np.save(f, parts)
-    meshio.write_obj(shapes_dir / f"{shape_id}.obj", mesh)
+    meshio.write_obj(paths.shape_file(shapes_dir, shape_id), mesh)
 
 
 def export_shard(split_dir: str | Path, shard: int, domain: str, program=None, recipe=None) -> Path:
@@ -95,15 +94,15 @@ def export_shard(split_dir: str | Path, shard: int, domain: str, program=None, r
     split_dir = Path(split_dir)
     program = program or load_program(domain)
     recipe = recipe or program.recipe()
-    rows = list(shard_rows(split_dir / "recipes.parquet", shard))
-    shapes_dir = split_dir / "shapes"
+    rows = list(shard_rows(paths.recipes_file(split_dir), shard))
+    shapes_dir = paths.shapes_dir(split_dir)
     progress = Progress(f"export {domain} shard {shard}", len(rows), log)
     for shape_id, values in rows:
         if not is_complete(shapes_dir, shape_id):
             export_shape(program, recipe, shape_id, values, shapes_dir)
         progress.step()
     progress.finish()
-    done = split_dir / "done" / f"export-{shard}.txt"
+    done = paths.done_file(split_dir, "export", shard)
     meshio.write_text(done, "".join(f"{shape_id}\n" for shape_id, _ in rows))
     return done
 
@@ -112,17 +111,3 @@ def random_rows(program, n: int, seed: int = 0) -> list[tuple[str, dict[str, flo
     """n (id, values) pairs from the program's own sampler, for benchmarks and galleries."""
     rng = np.random.default_rng(seed)
     return [(f"bench-{i:06d}", dict(program.random_values(rng))) for i in range(n)]
-
-
-def bench_export(domain: str, n: int = 20, program=None, recipe=None) -> float:
-    """Shapes per second through `export_shape` (evaluate, normalise, four files)."""
-    program = program or load_program(domain)
-    recipe = recipe or program.recipe()
-    rows = random_rows(program, n)
-    with tempfile.TemporaryDirectory() as tmp:
-        with Stopwatch() as clock:
-            for shape_id, values in rows:
-                export_shape(program, recipe, shape_id, values, Path(tmp))
-    rate = n / clock.seconds
-    log.info("export %s: %.1f shapes/s over %d shapes", domain, rate, n)
-    return rate

@@ -4,14 +4,13 @@ process (docs/paper-numbers.md#evaluation: predicted labels are denormalised ups
 from __future__ import annotations
 
 import logging
-import tempfile
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 
 from geocode import meshio
-from geocode.blender.export import load_program, random_rows, unit_mesh
+from geocode.blender.export import load_program, unit_mesh
 from geocode.errors import UserError, one_line
-from geocode.timing import Progress, Stopwatch
+from geocode.timing import Progress
 
 log = logging.getLogger(__name__)
 
@@ -40,15 +39,3 @@ def rebuild(domain: str, rows: Iterable[tuple[str, Mapping[str, float]]], out_di
         progress.step()
     progress.finish()
     return paths
-
-
-def bench_rebuild(domain: str, n: int = 20, program=None) -> float:
-    """Shapes per second through `rebuild` (evaluate, normalise, write the OBJ)."""
-    program = program or load_program(domain)
-    rows = random_rows(program, n, seed=1)
-    with tempfile.TemporaryDirectory() as tmp:
-        with Stopwatch() as clock:
-            rebuild(domain, rows, tmp, program=program)
-    rate = n / clock.seconds
-    log.info("rebuild %s: %.1f shapes/s over %d shapes", domain, rate, n)
-    return rate

@@ -30,7 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
-from geocode import meshio
+from geocode import meshio, paths
 from geocode.blender.scene import (  # noqa: F401 (Camera, MARGIN re-exported for callers)
     DEFAULT_ELEVATION,
     MARGIN,
@@ -205,17 +205,16 @@ def sketch_shard(split_dir: str | Path, shard: int, cameras: Sequence[Camera | M
     split_dir = Path(split_dir)
     cameras = [c if isinstance(c, Camera) else cameras_from_config([c], elevation)[0]
                for c in cameras]
-    ids = read_ids(split_dir / "done" / f"export-{shard}.txt")
-    out_dir = split_dir / "sketches"
+    ids = read_ids(paths.done_file(split_dir, "export", shard))
     progress = Progress(f"sketch shard {shard}", len(ids) * len(cameras), log)
     for shape_id in ids:
-        paths = {c.name: out_dir / f"{shape_id}_{c.name}.png" for c in cameras}
-        todo = [c for c in cameras if not is_sketch(paths[c.name])]
+        views = {c.name: paths.sketch_file(split_dir, shape_id, c.name) for c in cameras}
+        todo = [c for c in cameras if not is_sketch(views[c.name])]
         if todo:
-            mesh = meshio.read_obj(split_dir / "shapes" / f"{shape_id}.obj", meshio.REDO_EXPORT)
-            sketch_mesh(mesh, paths, todo, shape_id, seed, jitter, size)
+            mesh = meshio.read_obj(paths.shape_file(paths.shapes_dir(split_dir), shape_id), meshio.REDO_EXPORT)
+            sketch_mesh(mesh, views, todo, shape_id, seed, jitter, size)
         progress.step(len(cameras))
     progress.finish()
-    done = split_dir / "done" / f"sketch-{shard}.txt"
+    done = paths.done_file(split_dir, "sketch", shard)
     meshio.write_text(done, "".join(f"{i}\n" for i in ids))
     return done

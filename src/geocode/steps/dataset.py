@@ -1,5 +1,9 @@
-"""Which shapes a dataset holds (docs/paper-numbers.md#programs-and-datasets): per-class variations, constraints, visibility,
-dedup, seeds, and the sampling step that writes each split's recipes.parquet (no bpy).
+"""The dataset steps (workflow/rules/dataset.smk): sample, then export, sketch and points per
+shard. Sampling is here, in pure Python; the other three run the blender/ and points modules.
+
+Which shapes a dataset holds (docs/paper-numbers.md#programs-and-datasets): per-class
+variations, constraints, visibility, dedup, seeds, and the sampling step that writes each
+split's recipes.parquet (no bpy).
 
 For every recipe parameter and every one of its value classes, N shapes per split: the other
 recipe parameters are drawn uniformly over their value classes, this one is forced to its
@@ -22,7 +26,6 @@ from __future__ import annotations
 
 import hashlib
 import logging
-import os
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
@@ -30,10 +33,9 @@ import numpy as np
 import pandas as pd
 from omegaconf import DictConfig
 
-from geocode.config import data_dir, split_variations
-from geocode.errors import UserError
-from geocode.meshio import read_parquet, write_parquet
-from geocode.recipe import Recipe, load_recipe
+from geocode import paths
+from geocode.config import split_variations
+from geocode.recipe import Recipe, load_recipe, save_recipes
 from geocode.seeds import key_word
 
 log = logging.getLogger("geocode.sample")
@@ -45,12 +47,14 @@ __all__ = [
     "split_order",
     "assign_shards",
     "shape_hashes",
-    "save_recipes",
-    "load_recipes",
+    "spread_subset",
+    "sample_step",
+    "export_step",
+    "sketch_step",
+    "points_step",
 ]
 
 SPLIT_ORDER = ("test", "val", "train")
-META_COLUMNS = ("id", "shard", "forced", "forced_class")
 REASONS = ("constraint", "invisible", "duplicate", "accept")
 GOLDEN = np.uint64(0x9E3779B97F4A7C15)
 MIX_1 = np.uint64(0xBF58476D1CE4E5B9)
@@ -289,26 +293,6 @@ def shape_hashes(recipe: Recipe, frame: pd.DataFrame) -> list[str]:
     return [hashlib.blake2b(row.tobytes(), digest_size=16).hexdigest() for row in keys]
 
 
-def save_recipes(frame: pd.DataFrame, path: str | os.PathLike) -> None:
-    """Write `recipes.parquet` atomically (a crash never leaves a partial file)."""
-    missing = [c for c in META_COLUMNS if c not in frame]
-    if missing:
-        raise ValueError(f"recipes frame lacks column {missing[0]!r}")
-    write_parquet(path, frame.reset_index(drop=True))
-
-
-def load_recipes(path: str | os.PathLike) -> pd.DataFrame:
-    """Read `recipes.parquet`; a missing or broken file raises ValueError naming it."""
-    frame = read_parquet(path, "run the sample step")
-    missing = [c for c in META_COLUMNS if c not in frame]
-    if missing:
-        raise UserError(path, f"no column {missing[0]!r}", "rerun the sample step")
-    return frame
-
-
-SPLITS = ("train", "val", "test")
-
-
 def spread_subset(frame: pd.DataFrame, keep: int | None) -> pd.DataFrame:
     """At most `keep` rows, evenly spread over the frame so every forced parameter shows up."""
     if keep is None or len(frame) <= keep:
@@ -318,15 +302,42 @@ def spread_subset(frame: pd.DataFrame, keep: int | None) -> pd.DataFrame:
 
 
 def sample_step(cfg: DictConfig) -> str:
+    """The recipes of every split of cfg.domain: recipes.parquet, shards assigned."""
     domain = cfg.domain.name
     recipe = load_recipe(cfg)
     splits = sample_dataset(recipe, split_variations(cfg, domain), seed=cfg.seed, domain=domain)
     counts = []
-    for split in SPLITS:
+    for split in paths.SPLITS:
         frame = spread_subset(splits[split], cfg.data.max_shapes[split])
         frame = assign_shards(frame, cfg.data.shards)
-        save_recipes(frame, data_dir(cfg, domain, split) / "recipes.parquet")
+        save_recipes(frame, paths.recipes_file(paths.split_dir(cfg, domain, split)))
         counts.append(f"{split} {len(frame)}")
     summary = f"{domain}: " + ", ".join(counts) + " shapes"
     log.info(summary)
     return summary
+
+
+def export_step(cfg: DictConfig, split: str, shard: int) -> None:
+    """One shard of a split: the program's meshes, values, labels and part labels."""
+    from geocode.blender.export import export_shard
+
+    domain = cfg.domain.name
+    export_shard(paths.split_dir(cfg, domain, paths.check_split(cfg, split)), shard, domain,
+                 recipe=load_recipe(cfg))
+
+
+def sketch_step(cfg: DictConfig, split: str, shard: int) -> None:
+    """One shard of a split: a Freestyle sketch per shape and camera."""
+    from geocode.blender.sketch import sketch_shard
+
+    s = cfg.data.sketch
+    sketch_shard(paths.split_dir(cfg, cfg.domain.name, paths.check_split(cfg, split)), shard,
+                 cameras=s.cameras, size=s.size, elevation=s.elevation, seed=cfg.seed, jitter=s.jitter)
+
+
+def points_step(cfg: DictConfig, split: str, shard: int) -> None:
+    """One shard of a split: the farthest-point and random clouds of each shape."""
+    from geocode.points import points_shard
+
+    points_shard(paths.split_dir(cfg, cfg.domain.name, paths.check_split(cfg, split)), shard,
+                 cfg.data.points, cfg.seed)

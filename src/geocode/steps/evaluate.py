@@ -1,12 +1,9 @@
-"""Evaluation steps (no bpy): robustness inputs, prediction, metrics
+"""The evaluation steps (workflow/rules/evaluate.smk): simplify, predict, rebuild, metrics
 (docs/paper-numbers.md#evaluation and #robustness).
 
-Conditions are the inputs a model is tested on: clean point clouds, sketches from each
-camera, noisy and sparse clouds, and point clouds and sketches of simplified test meshes.
-The point-cloud conditions named in `eval.fit` come twice: as predicted, and as fitted
-(`<condition>-fit`, modality "pc+fit": the prediction refined by `geocode.fit` against the
-input cloud in the rebuild step, which has the program at hand).
-A simplified copy of the test split lives beside it as the split `test-s<factor>`, so the
+Each model is tested on the inputs of every condition (`geocode.conditions`); the fitted
+conditions' predictions are refined by `geocode.fit` in the rebuild step, which has the
+program at hand. A simplified copy of the test split lives beside it as the split `test-s<factor>`, so the
 ordinary sketch and points stages make its inputs.
 """
 
@@ -21,7 +18,9 @@ import numpy as np
 import pandas as pd
 from omegaconf import DictConfig
 
-from geocode.config import NAME, data_dir, simplified_split
+from geocode import paths
+from geocode.conditions import FITTED, MODALITY_NAMES, conditions, robustness, unfitted
+from geocode.config import NAME
 from geocode.errors import UserError
 from geocode.meshio import (
     REDO_EXPORT,
@@ -32,62 +31,20 @@ from geocode.meshio import (
     write_parquet,
     write_text,
 )
-from geocode.recipe import manifest_path
+from geocode.recipe import load_recipes, save_recipes
 from geocode.seeds import generator
-from geocode.timing import Stopwatch
-from geocode.variations import load_recipes, save_recipes, spread_subset
+from geocode.steps.dataset import spread_subset
 
-log = logging.getLogger("geocode.evaluation")
+log = logging.getLogger("geocode.steps.evaluate")
 
 KEYS = ["condition", "modality", "source", "camera", "noise", "sparse", "id"]
-MODALITY_NAMES = {"points": "pc", "sketch": "sketch"}  # the model's inputs -> metrics' modality
-FITTED = "pc+fit"       # the modality of a cloud's prediction refined by `geocode.fit`
 OPTIONS = "fit_options"  # predictions' column: JSON of each discrete parameter's candidate values
-
-
-def robustness(variant: str) -> bool:
-    """Whether a variant gets the full evaluation: the robustness inputs, the mean-shape
-    baseline and the drop tests belong to the joint model's tables; the baselines and
-    ablations are compared on clean inputs only."""
-    return variant == "joint"
-
-
-def conditions(cfg: DictConfig, modalities=("pc", "sketch"), full: bool = True) -> list[dict]:
-    """The test inputs of one domain, as records with the columns of KEYS (less id): the
-    clean ones of `modalities` (pc, sketch), and with `full` the robustness inputs."""
-    cams = list(cfg.data.sketch.cameras)
-    trained = [c.name for c in cams if c.train]
-
-    def cond(modality, source="test", camera="", noise=0.0, sparse=0):
-        parts = [modality, source if source != "test" else "", camera,
-                 f"noise{noise:g}" if noise else "", f"sparse{sparse}" if sparse else ""]
-        return dict(condition="-".join(p for p in parts if p), modality=modality, source=source,
-                    camera=camera, noise=float(noise), sparse=int(sparse))
-
-    out = [cond("pc")] + [cond("sketch", camera=c.name) for c in cams]
-    if not full:
-        return [c for c in out if c["modality"] in modalities]
-    out += [cond("pc", noise=s) for s in cfg.eval.noise]
-    out += [cond("pc", sparse=n) for n in cfg.eval.sparse]
-    for f in cfg.eval.simplify:
-        out += [cond("pc", source=f"s{f}")] + [cond("sketch", source=f"s{f}", camera=c) for c in trained]
-    return out + [fitted(c) for c in out if c["condition"] in cfg.eval.fit]
-
-
-def fitted(cond: dict) -> dict:
-    """The condition of a point-cloud condition's predictions refined by the fit."""
-    return {**cond, "condition": f"{cond['condition']}-fit", "modality": FITTED}
-
-
-def unfitted(cond: dict) -> dict:
-    """The inverse of `fitted`: the condition whose clouds the fit matches."""
-    return {**cond, "condition": cond["condition"].removesuffix("-fit"), "modality": "pc"}
 
 
 def test_ids(cfg: DictConfig, domain: str) -> list[str]:
     """The evaluated test shapes: at most eval.max_test_shapes, evenly spread over the split
     (so that every forced parameter class shows up), the same for every model variant."""
-    recipes = load_recipes(data_dir(cfg, domain, "test") / "recipes.parquet")
+    recipes = load_recipes(paths.recipes_file(paths.split_dir(cfg, domain, "test")))
     return spread_subset(recipes, cfg.eval.max_test_shapes)["id"].tolist()
 
 
@@ -97,52 +54,49 @@ def simplify_step(cfg: DictConfig, domain: str, factor: int) -> str:
     """Quadric-decimate the evaluated test meshes to 1/factor of their faces, as split test-s<f>."""
     from geocode.points import simplify
 
-    src = data_dir(cfg, domain, "test")
-    dst = data_dir(cfg, domain, simplified_split(factor))
-    recipes = load_recipes(src / "recipes.parquet")
+    dst = paths.split_dir(cfg, domain, paths.check_split(cfg, paths.simplified_split(factor)))
+    src = paths.split_dir(cfg, domain, "test")
+    recipes = load_recipes(paths.recipes_file(src))
     recipes = recipes[recipes["id"].isin(test_ids(cfg, domain))]
-    save_recipes(recipes, dst / "recipes.parquet")
+    save_recipes(recipes, paths.recipes_file(dst))
     faces_before = faces_after = 0
     for shard in range(cfg.data.shards):
         rows = recipes[recipes["shard"] == shard]
         for shape_id in rows["id"]:
-            mesh = read_obj(src / "shapes" / f"{shape_id}.obj", REDO_EXPORT)
+            mesh = read_obj(paths.shape_file(paths.shapes_dir(src), shape_id), REDO_EXPORT)
             small = normalise_unit_sphere(simplify(mesh, 1.0 / factor))
-            write_obj(dst / "shapes" / f"{shape_id}.obj", small)
+            write_obj(paths.shape_file(paths.shapes_dir(dst), shape_id), small)
             faces_before += len(mesh.faces)
             faces_after += len(small.faces)
-        write_text(dst / "done" / f"export-{shard}.txt", "".join(f"{i}\n" for i in rows["id"]))
+        write_text(paths.done_file(dst, "export", shard), "".join(f"{i}\n" for i in rows["id"]))
     return f"{domain} 1/{factor}: {faces_before} -> {faces_after} faces over {len(recipes)} shapes"
 
 
 def point_input(cfg: DictConfig, domain: str, cond: dict, shape_id: str) -> np.ndarray:
     """The evaluation cloud of one shape under one condition, float32 (N, 3)."""
-    from geocode.points import add_noise, load_clouds, sparse_cloud
-    from geocode.training_data import eval_cloud
+    from geocode.points import add_noise, eval_cloud, load_clouds, sparse_cloud
 
     rng = generator(cfg.seed, "eval", cond["condition"], shape_id)
     if cond["sparse"]:
-        mesh = read_obj(data_dir(cfg, domain, "test") / "shapes" / f"{shape_id}.obj", REDO_EXPORT)
+        mesh = read_obj(paths.shape_file(paths.shapes_dir(paths.split_dir(cfg, domain, "test")), shape_id), REDO_EXPORT)
         return sparse_cloud(mesh, cond["sparse"], rng)
-    split = "test" if cond["source"] == "test" else f"test-{cond['source']}"
-    clouds = load_clouds(data_dir(cfg, domain, split) / "points" / f"{shape_id}.npz")
+    clouds = load_clouds(paths.cloud_file(paths.split_dir(cfg, domain, paths.source_split(cond["source"])), shape_id))
     cloud = eval_cloud(clouds, cfg.data.points.train_random, cfg.seed, shape_id)
     return add_noise(cloud, cond["noise"], rng) if cond["noise"] else cloud
 
 
 def sketch_path(cfg: DictConfig, domain: str, cond: dict, shape_id: str) -> Path:
-    split = "test" if cond["source"] == "test" else f"test-{cond['source']}"
-    return data_dir(cfg, domain, split) / "sketches" / f"{shape_id}_{cond['camera']}.png"
+    split = paths.split_dir(cfg, domain, paths.source_split(cond["source"]))
+    return paths.sketch_file(split, shape_id, cond["camera"])
 
 
 # -- prediction ---------------------------------------------------------------------------------
 
 def predict_step(cfg: DictConfig, domain: str, checkpoint: Path, out: Path) -> str:
     """Predict every condition's test inputs, denormalise, and write one parquet of values."""
-    from geocode.checkpoints import load_model, predict_classes
+    from geocode.checkpoints import load_model, predict_classes, ranked_prediction
     from geocode.recipe import load_recipe
-    from geocode.reconstruct import ranked_prediction
-    from geocode.training_data import load_sketch
+    from geocode.steps.train_data import load_sketch
 
     recipe = load_recipe(cfg)
     model = load_model(checkpoint, recipe=recipe)
@@ -183,7 +137,7 @@ def mean_shape(cfg: DictConfig, domain: str, recipe) -> pd.DataFrame:
     """The baseline: every parameter at its most frequent class in the training split (the
     stronger constant: each continuous parameter at its median class is further from the test
     shapes, docs/fidelity.md)."""
-    train = load_recipes(data_dir(cfg, domain, "train") / "recipes.parquet")
+    train = load_recipes(paths.recipes_file(paths.split_dir(cfg, domain, "train")))
     classes = recipe.class_matrix(train)                        # (n, P)
     common = {p.name: int(np.bincount(classes[:, j]).argmax()) for j, p in enumerate(recipe.parameters)}
     values = recipe.values_from_classes(common)
@@ -206,9 +160,10 @@ def read_predictions(path: Path) -> pd.DataFrame:
 # -- rebuilding ---------------------------------------------------------------------------------
 
 def rebuild_step(cfg: DictConfig, domain: str, predictions: Path, shard: int) -> str:
-    """Rebuild every n-th prediction with the program: <eval>/rebuilt/<condition>/<id>.obj.
-    Fitted conditions are fitted first, from the prediction, to the condition's input cloud;
-    their distances before and after and the time go to rebuilt/fit-<shard>.parquet."""
+    """Rebuild every n-th prediction with the program, into the rebuilt folder beside the
+    predictions (`paths.rebuilt_mesh`). Fitted conditions are fitted first, from the
+    prediction, to the condition's input cloud; their distances before and after and the
+    time go to the shard's `paths.fit_file`."""
     from geocode.blender.rebuild import rebuild
     from geocode.program import Program
 
@@ -216,18 +171,18 @@ def rebuild_step(cfg: DictConfig, domain: str, predictions: Path, shard: int) ->
     recipe = program.recipe()
     table = read_predictions(predictions).iloc[shard::cfg.data.shards]
     names = [c for c in table.columns if c not in KEYS + [OPTIONS]]
-    out_dir = Path(predictions).parent / "rebuilt"
+    out_dir = paths.rebuilt_dir(predictions)
     jobs, fits = [], []
     for r in table.to_dict("records"):
         values = {n: r[n] for n in names}
         if r["modality"] == FITTED:
             values, stats = fit_prediction(cfg, domain, program, recipe, r, values)
             fits.append(stats)
-        jobs.append((f"{r['condition']}/{r['id']}", values))
+        jobs.append((paths.rebuilt_key(r["condition"], r["id"]), values))
     rebuild(domain, jobs, out_dir, program=program)
     if fits:
-        write_parquet(out_dir / f"fit-{shard}.parquet", pd.DataFrame(fits))
-    write_text(out_dir / f"done-{shard}.txt", "".join(f"{key}\n" for key, _ in jobs))
+        write_parquet(paths.fit_file(out_dir, shard), pd.DataFrame(fits))
+    write_text(paths.rebuilt_done(out_dir, shard), "".join(f"{key}\n" for key, _ in jobs))
     return f"{domain}: rebuilt {len(jobs)} shapes, {len(fits)} of them fitted"
 
 
@@ -248,27 +203,26 @@ def fit_prediction(cfg: DictConfig, domain: str, program, recipe, row: dict, val
 
 def hangs(cfg: DictConfig, domain: str) -> bool:
     """Whether the domain's program hangs (its manifest says so): a drop test does not apply."""
-    return bool(json.loads(manifest_path(cfg, domain).read_text()).get("hangs", False))
+    return bool(json.loads(paths.manifest_path(cfg, domain).read_text()).get("hangs", False))
 
 
-def metrics_step(cfg: DictConfig, domain: str, predictions: Path, out: Path) -> str:
-    """Chamfer distance of every rebuilt prediction to its ground truth; for the joint model
-    the drop test on the ground truth and on the clean predictions (none for a program that
+def metrics_step(cfg: DictConfig, domain: str, variant: str, predictions: Path, out: Path) -> str:
+    """Chamfer distance of every rebuilt prediction of a model variant to its ground truth;
+    for the joint model the drop test on the ground truth and on the clean predictions (none for a program that
     hangs); one row per prediction (and per GT shape)."""
     from geocode.metrics import chamfer_meshes
     from geocode.stability import drop_test
 
     hanging = hangs(cfg, domain)  # a ceiling lamp: `stable` stays NaN
     table = read_predictions(predictions)
-    rebuilt = Path(predictions).parent / "rebuilt"
-    variant = Path(predictions).parent.parent.name          # <runs>/<domain>/<variant>/eval/
-    gt_dir = data_dir(cfg, domain, "test") / "shapes"
+    rebuilt = paths.rebuilt_dir(predictions)
+    gt_dir = paths.shapes_dir(paths.split_dir(cfg, domain, "test"))
     cams = {c.name for c in cfg.data.sketch.cameras if c.train}
-    gt_meshes = {i: read_obj(gt_dir / f"{i}.obj", REDO_EXPORT) for i in test_ids(cfg, domain)}
+    gt_meshes = {i: read_obj(paths.shape_file(gt_dir, i), REDO_EXPORT) for i in test_ids(cfg, domain)}
     full = robustness(variant)
     rows = []
     for rec in table[KEYS].to_dict("records"):
-        pred = read_obj(rebuilt / rec["condition"] / f"{rec['id']}.obj", "delete it and rerun the rebuild step")
+        pred = read_obj(paths.rebuilt_mesh(rebuilt, rec["condition"], rec["id"]), "delete it and rerun the rebuild step")
         targets = gt_meshes.items() if rec["modality"] == "baseline" else [(rec["id"], gt_meshes[rec["id"]])]
         clean = rec["source"] == "test" and not rec["noise"] and not rec["sparse"]
         stable = np.nan
@@ -285,22 +239,3 @@ def metrics_step(cfg: DictConfig, domain: str, predictions: Path, out: Path) -> 
     frame = pd.DataFrame(rows).assign(domain=domain, variant=variant)
     write_parquet(out, frame)
     return f"{domain}/{variant}: {len(frame)} metric rows"
-
-
-# -- benchmark --------------------------------------------------------------------------------
-
-def bench_eval(domain: str, n: int = 40) -> dict:
-    """Rebuild rate, Chamfer time (10k vs 10k) and drop-test time on real shapes of a domain."""
-    from geocode.blender.export import load_program, random_rows, unit_mesh
-    from geocode.blender.rebuild import bench_rebuild
-    from geocode.metrics import bench_chamfer
-    from geocode.stability import drop_test
-
-    program = load_program(domain)
-    meshes = [unit_mesh(program, values) for _, values in random_rows(program, n, seed=2)]
-    with Stopwatch() as clock:
-        stable = [drop_test(mesh)["stable"] for mesh in meshes]
-    drop_s = clock.seconds / n
-    return {"n": n, "rebuild_shapes_per_s": round(bench_rebuild(domain, n, program=program), 2),
-            "chamfer_ms": round(bench_chamfer(), 2), "drop_test_s": round(drop_s, 3),
-            "stable_rate": round(float(np.mean(stable)), 3)}

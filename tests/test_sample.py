@@ -5,13 +5,11 @@ import pandas as pd
 import pytest
 
 from geocode.expr import parse
-from geocode.recipe import Parameter, Recipe
-from geocode.variations import (
+from geocode.recipe import Parameter, Recipe, load_recipes, save_recipes
+from geocode.steps.dataset import (
     SamplingError,
     assign_shards,
-    load_recipes,
     sample_dataset,
-    save_recipes,
     shape_hashes,
     split_order,
 )

@@ -1,4 +1,5 @@
-"""Throughput of the point encoders and single-sample inference latency (docs/paper-numbers.md#training)."""
+"""Throughput of the point encoders, single-sample inference latency and the time of a training
+epoch (`geocode bench train`, `geocode bench epoch`; docs/paper-numbers.md#training)."""
 
 from __future__ import annotations
 

@@ -30,7 +30,6 @@ MIN_POINTS = 100
 SKETCH_SIZE = 224
 SKETCH_EXTENT = 191            # median extent of the strokes in the dataset's sketches (px)
 STROKE = 2.0                   # their stroke width (px)
-TOP_CLASSES = 3                # discrete options the fit may choose among, per parameter
 OUTPUTS = (".yaml", ".obj", ".png", ".blend")
 
 
@@ -174,52 +173,7 @@ def centre_lines(strokes: np.ndarray, reach: int) -> np.ndarray:
     return strokes & (depth >= ridge - 1.0)
 
 
-# -- prediction -------------------------------------------------------------------------------
-
-def check_checkpoint(model, recipe, checkpoint: Path, domain: str) -> None:
-    """The checkpoint's decoders must be this recipe's, else its classes mean other values."""
-    from geocode.models.heads import head_specs
-
-    if list(model.hparams.heads) != head_specs(recipe):
-        raise UserError(f"{checkpoint}: this model was trained for other parameters than "
-                         f"{domain!r}'s recipe; pass the checkpoint of a {domain} model")
-
-
-def ranked_prediction(model, recipe, modality: str, data: np.ndarray, decode: str, k: int = TOP_CLASSES):
-    """(raw values of the predicted classes (`decode`: eval.decode), {discrete parameter: its
-    k most probable raw values}) for one input of a modality (points (N, 3) or sketch (1, H, W))."""
-    return ranked_predictions(model, recipe, modality, data[None], decode, k)[0]
-
-
-def ranked_predictions(model, recipe, modality: str, batch: np.ndarray, decode: str,
-                       k: int = TOP_CLASSES) -> list[tuple[dict, dict]]:
-    """`ranked_prediction` for each input of a batch (B, N, 3) or (B, 1, H, W), in one pass."""
-    import torch
-
-    x = torch.as_tensor(batch, dtype=torch.float32)
-    with torch.inference_mode():
-        outputs = model(**{"points" if modality == "points" else "sketches": x})[modality]
-        best = model.classes(outputs, modality, decode).tolist()
-    out = []
-    for b, classes in enumerate(best):
-        start = recipe.values_from_classes(dict(zip(model.parameter_names, classes, strict=True)))
-        options = {}
-        for p in recipe.parameters:
-            logits = outputs[p.name][b]
-            if p.kind == "float" or len(logits) != p.n_classes:   # continuous, or regressed
-                continue
-            ranked = torch.argsort(logits, descending=True)[:k].tolist()
-            values = [float(p.classes[c]) if c < len(p.classes) else float(p.default) for c in ranked]
-            options[p.name] = list(dict.fromkeys(values))   # the existence class may repeat one
-        out.append((start, options))
-    return out
-
-
 # -- the command --------------------------------------------------------------------------------
-
-def default_checkpoint(cfg, domain: str) -> Path:
-    return Path(cfg.paths.runs) / domain / "joint" / "checkpoints" / "best.ckpt"
-
 
 def reconstruct(cfg, domain: str, input_path: Path, out_dir: Path,
                 checkpoint: Path | None = None, refine: int | None = None,
@@ -236,7 +190,12 @@ def reconstruct(cfg, domain: str, input_path: Path, out_dir: Path,
 
 def _reconstruct(cfg, domain: str, input_path: Path, files: dict[str, Path],
                  checkpoint: Path | None, refine: int | None, up: str | None) -> dict:
-    from geocode.checkpoints import load_model
+    from geocode.checkpoints import (
+        check_checkpoint,
+        default_checkpoint,
+        load_model,
+        ranked_prediction,
+    )
     from geocode.fit import Start, fit
     from geocode.program import Program
 
@@ -271,7 +230,7 @@ def write_outputs(program, values: dict, user_input: UserInput, files: dict[str,
     """The values (.yaml), mesh (.obj), preview (.png) and program with its modifier set to
     `values` (.blend), each to its file in `files` (by suffix)."""
     from geocode.blender.gallery import render_preview
-    from geocode.editing import write_shape
+    from geocode.tools.editing import write_shape
 
     mesh = write_shape(files[".obj"], files[".yaml"], program, values)
     render_preview(user_input, mesh, files[".png"])

@@ -1,4 +1,4 @@
-"""results/report: an HTML page that shows, per domain, the learning curves of each modality
+"""The report step (workflow/rules/tables.smk): an HTML page that shows, per domain, the learning curves of each modality
 (train and validation accuracy and loss per epoch, with the majority bar), the validation
 accuracy of every parameter, and for a few test shapes the input sketch and point cloud
 beside the ground truth and the shapes rebuilt from the predictions."""
@@ -14,6 +14,7 @@ import numpy as np
 import pandas as pd
 from PIL import Image, ImageDraw
 
+from geocode import paths
 from geocode.meshio import atomic_path, write_text
 
 log = logging.getLogger(__name__)
@@ -52,7 +53,7 @@ CURVES = (  # (modality, stage, colour, dash): the lines of a learning-curve cha
 def curve_svg(curves: pd.DataFrame, metric: str, majority: float | None = None,
               width: int = 360, height: int = 220) -> str:
     """An inline SVG chart of `<stage>/<metric>_<modality>` per epoch (the columns of
-    `geocode.train.epoch_metrics`), with a grey dashed line at `majority`."""
+    `geocode.steps.train.epoch_metrics`), with a grey dashed line at `majority`."""
     lines = [(f"{st}/{metric}_{m}", f"{m} {st}", colour, dash) for m, st, colour, dash in CURVES
              if f"{st}/{metric}_{m}" in curves]
     values = [curves[col].dropna() for col, *_ in lines]
@@ -148,12 +149,13 @@ def run_training_html(run: Path) -> str:
     """`training_html` of a run folder (its CSV logs and summary.json); "" without a summary."""
     import json
 
-    from geocode.train import SUMMARY, epoch_metrics
+    from geocode.steps.train import epoch_metrics
 
-    if not (run / SUMMARY).is_file():
-        log.warning("%s: no %s (trained before it was written); no learning curves", run, SUMMARY)
+    summary = paths.summary_file(run)
+    if not summary.is_file():
+        log.warning("%s: no %s (trained before it was written); no learning curves", run, summary.name)
         return ""
-    return training_html(epoch_metrics(run), json.loads((run / SUMMARY).read_text()))
+    return training_html(epoch_metrics(run), json.loads(summary.read_text()))
 
 
 def report_step(cfg, metrics_files: list[Path], out_dir: Path, per_domain: int = 4) -> str:
@@ -161,9 +163,9 @@ def report_step(cfg, metrics_files: list[Path], out_dir: Path, per_domain: int =
     import shutil
 
     from geocode.blender.gallery import render_mesh_png
-    from geocode.config import config_hash, data_dir
-    from geocode.evaluation import point_input
+    from geocode.config import config_hash
     from geocode.meshio import read_obj
+    from geocode.steps.evaluate import point_input
 
     out_dir = Path(out_dir)
     camera = next(c.name for c in cfg.data.sketch.cameras if c.train)
@@ -173,26 +175,28 @@ def report_step(cfg, metrics_files: list[Path], out_dir: Path, per_domain: int =
         if metrics.variant.iloc[0] != "joint":
             continue
         domain = metrics.domain.iloc[0]
-        rebuilt = Path(path).parent / "rebuilt"
-        test = data_dir(cfg, domain, "test")
+        run = paths.run_dir(cfg, domain, "joint")
+        rebuilt = paths.rebuilt_dir(paths.predictions_file(run))
+        test = paths.split_dir(cfg, domain, "test")
+        shapes = paths.shapes_dir(test)
         rows = []
         for shape_id in pick_examples(metrics, per_domain):
             name = f"{domain}/{shape_id}"
             (out_dir / domain).mkdir(parents=True, exist_ok=True)
-            shutil.copyfile(test / "sketches" / f"{shape_id}_{camera}.png", out_dir / f"{name}_sketch.png")
+            shutil.copyfile(paths.sketch_file(test, shape_id, camera), out_dir / f"{name}_sketch.png")
             cloud = point_input(cfg, domain, {"condition": "pc", "source": "test", "noise": 0, "sparse": 0}, shape_id)
             save_png(cloud_image(cloud), out_dir / f"{name}_cloud.png")
             cd = metrics[metrics.id == shape_id].set_index("condition").chamfer
-            meshes = {"gt": test / "shapes" / f"{shape_id}.obj", "pc": rebuilt / "pc" / f"{shape_id}.obj",
-                      "sketch_pred": rebuilt / f"sketch-{camera}" / f"{shape_id}.obj"}
+            meshes = {"gt": paths.shape_file(shapes, shape_id), "pc": paths.rebuilt_mesh(rebuilt, "pc", shape_id),
+                      "sketch_pred": paths.rebuilt_mesh(rebuilt, f"sketch-{camera}", shape_id)}
             row = dict(id=shape_id, chamfer_pc=cd["pc"], chamfer_sketch=cd[f"sketch-{camera}"])
             if "pc-fit" in cd:
-                meshes["pc_fit"] = rebuilt / "pc-fit" / f"{shape_id}.obj"
+                meshes["pc_fit"] = paths.rebuilt_mesh(rebuilt, "pc-fit", shape_id)
                 row["chamfer_fit"] = cd["pc-fit"]
             for tag, obj in meshes.items():
                 render_mesh_png(read_obj(obj), out_dir / f"{name}_{tag}.png")
             rows.append({**row, **{t: f"{name}_{t}.png" for t in ("sketch", "cloud", *meshes)}})
-        sections.append({"domain": domain, "rows": rows, "training": run_training_html(Path(path).parents[1])})
+        sections.append({"domain": domain, "rows": rows, "training": run_training_html(run)})
     header = f"profile {cfg.profile_name}, config {config_hash(cfg)}; sketches from camera {camera}"
     index = write_report(out_dir, "geocode: predictions on test shapes", header, sections)
     return f"wrote {index}"

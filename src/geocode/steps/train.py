@@ -2,7 +2,6 @@
 `geocode.checkpoints` (also importable from here).
 
     train(cfg, out_dir=None) -> dict        # Lightning fit; resumes from <out>/checkpoints/last.ckpt
-    bench_train() -> {"reference_samples_per_s", "fast_samples_per_s", "speedup", "inference_ms"}
 """
 
 from __future__ import annotations
@@ -18,6 +17,7 @@ import pandas as pd
 import pytorch_lightning as pl
 from omegaconf import DictConfig, OmegaConf
 
+from geocode import paths
 from geocode import settings as schema
 from geocode.checkpoints import (  # noqa: F401  (load_model, predict, predict_classes: this module's API too)
     CheckpointError,
@@ -31,16 +31,12 @@ from geocode.checkpoints import (  # noqa: F401  (load_model, predict, predict_c
 from geocode.config import max_epochs, settings
 from geocode.errors import UserError, one_line
 from geocode.meshio import write_text
-from geocode.models.bench import bench_train
 from geocode.models.module import MODALITIES, GeoCodeModule
-from geocode.recipe import load_recipe, manifest_path
+from geocode.recipe import load_recipe
 
 log = logging.getLogger(__name__)
 
-__all__ = ["CheckpointError", "bench_train", "load_model", "predict", "predict_classes", "train"]
-
-
-SUMMARY = "summary.json"  # in the run folder: the best scores and the majority bar
+__all__ = ["CheckpointError", "load_model", "predict", "predict_classes", "train"]
 
 
 # ---------------------------------------------------------------- config helpers
@@ -60,7 +56,7 @@ def run_dir(cfg: DictConfig, out_dir: str | Path | None) -> Path:
         return Path(out_dir)
     if cfg.train.out_dir:
         return Path(cfg.train.out_dir)
-    return Path(cfg.paths.runs) / cfg.domain.name / variant(cfg)
+    return paths.run_dir(cfg, cfg.domain.name, variant(cfg))
 
 
 def build_model(cfg: DictConfig, recipe) -> GeoCodeModule:
@@ -94,11 +90,11 @@ class RunStamp(pl.Callback):
 
 
 def build_datamodule(cfg: DictConfig, recipe, modalities=MODALITIES):
-    from geocode.training_data import GeoCodeDataModule, PointAugment, SketchAugment
+    from geocode.steps.train_data import GeoCodeDataModule, PointAugment, SketchAugment
 
     s = settings(cfg)
     return GeoCodeDataModule(
-        root=Path(s.paths.data) / s.domain.name,
+        root=paths.domain_dir(cfg, cfg.domain.name),
         recipe=recipe,
         cameras=camera_names(cfg),
         n_random=s.data.points.train_random,
@@ -136,14 +132,14 @@ def train(cfg: DictConfig, out_dir: str | Path | None = None) -> dict:
     from pytorch_lightning.loggers import CSVLogger, TensorBoardLogger
 
     out = run_dir(cfg, out_dir)
-    ckpt_dir = out / "checkpoints"
+    ckpt_dir = paths.checkpoint_dir(out)
     pl.seed_everything(int(cfg.seed), workers=True)
     recipe = load_recipe(cfg)
     program = program_key(cfg)
     model = build_model(cfg, recipe)
     data = build_datamodule(cfg, recipe, model.modalities)   # huang reads no clouds
     data.setup("fit")  # read (and check) the data before the run folder is made; kept for fit
-    last = ckpt_dir / "last.ckpt"
+    last = paths.checkpoint_file(out, "last")
     best_cb = ModelCheckpoint(dirpath=ckpt_dir, filename="best", monitor="val/acc", mode="max",
                               save_last=True, enable_version_counter=False)
     trainer = trainer_for(settings(cfg).train, max_epochs=max_epochs(cfg, variant(cfg)), default_root_dir=out,
@@ -153,7 +149,7 @@ def train(cfg: DictConfig, out_dir: str | Path | None = None) -> dict:
     if resume is not None:
         check_compatible(resume, model)
     trainer.loggers = [CSVLogger(out, name="logs"), TensorBoardLogger(out, name="tb")]  # version_<n> per (re)start
-    write_text(out / "config.yaml", OmegaConf.to_yaml(cfg, resolve=True))  # the run folder's first file
+    write_text(paths.run_config_file(out), OmegaConf.to_yaml(cfg, resolve=True))  # the run folder's first file
     trainer.fit(model, datamodule=data, ckpt_path=resume, weights_only=True)
     score = best_cb.best_model_score
     curves = epoch_metrics(out)
@@ -161,7 +157,7 @@ def train(cfg: DictConfig, out_dir: str | Path | None = None) -> dict:
     best_row = curves.loc[curves["val/acc"].idxmax()] if "val/acc" in curves else {}
     result = {
         "out_dir": str(out),
-        "best": str(ckpt_dir / "best.ckpt"),
+        "best": str(paths.checkpoint_file(out)),
         "last": str(last),
         "best_val_acc": None if score is None else float(score),
         **{f"best_val_acc_{m}": float(best_row[f"val/acc_{m}"]) for m in MODALITIES if f"val/acc_{m}" in curves},
@@ -171,7 +167,7 @@ def train(cfg: DictConfig, out_dir: str | Path | None = None) -> dict:
         "resumed": resume is not None,
         "program": program,
     }
-    write_text(out / SUMMARY, json.dumps(result, indent=1) + "\n")
+    write_text(paths.summary_file(out), json.dumps(result, indent=1) + "\n")
     log.info("trained %s: %s", cfg.domain.name, result)
     return result
 
@@ -179,7 +175,7 @@ def train(cfg: DictConfig, out_dir: str | Path | None = None) -> dict:
 def epoch_metrics(run: str | Path) -> pd.DataFrame:
     """Per-epoch metrics of a run folder, from the CSV logs of every (re)start: one row per
     epoch (the last logged value of each column), indexed by epoch."""
-    files = sorted(Path(run).glob("logs/version_*/metrics.csv"), key=lambda f: int(f.parent.name.split("_")[1]))
+    files = paths.csv_log_files(run)
     if not files:
         raise FileNotFoundError(f"{run}: no logs/version_*/metrics.csv; train first")
     rows = pd.concat([pd.read_csv(f) for f in files], ignore_index=True)
@@ -213,10 +209,9 @@ def majority_accuracy(cfg: DictConfig, recipe) -> float:
 
 def majority_per_parameter(cfg: DictConfig, recipe) -> dict[str, float]:
     """{parameter: val accuracy of its most frequent train class}, in recipe order."""
-    from geocode.config import data_dir
-    from geocode.variations import load_recipes
+    from geocode.recipe import load_recipes
 
-    classes = {split: recipe.class_matrix(load_recipes(data_dir(cfg, cfg.domain.name, split) / "recipes.parquet"))
+    classes = {split: recipe.class_matrix(load_recipes(paths.recipes_file(paths.split_dir(cfg, cfg.domain.name, split))))
                for split in ("train", "val")}
     common = np.array([np.bincount(column).argmax() for column in classes["train"].T])  # (P,)
     hits = (classes["val"] == common).mean(axis=0)  # (P,)
@@ -229,7 +224,7 @@ def majority_per_parameter(cfg: DictConfig, recipe) -> dict[str, float]:
 def program_key(cfg: DictConfig) -> str:
     """The key of the domain's program: a hash of its manifest (parameters, visibility rules
     and the fingerprint of its geometry), so that a changed program has another key."""
-    manifest = json.loads(manifest_path(cfg, cfg.domain.name).read_text())
+    manifest = json.loads(paths.manifest_path(cfg, cfg.domain.name).read_text())
     return hashlib.sha1(json.dumps(manifest, sort_keys=True).encode()).hexdigest()[:10]
 
 

@@ -10,7 +10,7 @@ Sketch convention: float32 (1, H, W) in [0, 1], white background = 1, black stro
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
@@ -22,9 +22,11 @@ import torch.nn.functional as F
 from PIL import Image
 from torch.utils.data import DataLoader, Dataset
 
+from geocode import paths
 from geocode.errors import UserError, one_line
 from geocode.models.module import MODALITIES
-from geocode.seeds import generator, key_word
+from geocode.points import eval_pick
+from geocode.seeds import key_word
 
 IO_THREADS = 8  # file reads release the GIL (zlib, PNG decoding)
 
@@ -56,19 +58,6 @@ def _load_npz(path: Path) -> tuple[np.ndarray, np.ndarray]:
     return clouds["fps"].astype(np.float32), clouds["random"].astype(np.float32)
 
 
-def eval_pick(n_random: int, n_pick: int, seed: int, shape_id: str) -> np.ndarray:
-    """The fixed evaluation choice of `n_pick` of a shape's random points (sorted indices)."""
-    return np.sort(generator(seed, "eval-cloud", shape_id).permutation(n_random)[:n_pick])
-
-
-def eval_cloud(clouds: Mapping[str, np.ndarray], n_random: int, seed: int, shape_id: str) -> np.ndarray:
-    """The evaluation cloud: all FPS points + a fixed draw, from (seed, id), of `n_random` random
-    points. Shapes: fps (F, 3), random (R, 3) -> (F + n_random, 3) float32."""
-    rand = np.asarray(clouds["random"], dtype=np.float32)
-    pick = eval_pick(len(rand), n_random, seed, shape_id)
-    return np.concatenate([np.asarray(clouds["fps"], dtype=np.float32), rand[pick]])
-
-
 # ---------------------------------------------------------------- a split in memory
 
 
@@ -89,18 +78,18 @@ class SplitData:
 
 def load_split(split_dir: str | Path, recipe, cameras: Sequence[str]) -> SplitData:
     """Read a split folder: labels from recipes.parquet, clouds and sketches in parallel."""
-    from geocode.variations import load_recipes
+    from geocode.recipe import load_recipes
 
     split_dir = Path(split_dir)
-    frame = load_recipes(split_dir / "recipes.parquet")
+    frame = load_recipes(paths.recipes_file(split_dir))
     ids = [str(i) for i in frame["id"]]
     if not ids:
-        raise UserError(split_dir / "recipes.parquet", "no shapes in this split", "sample more")
+        raise UserError(paths.recipes_file(split_dir), "no shapes in this split", "sample more")
     labels = recipe.class_matrix(frame).astype(np.int64)  # (n, P)
     with ThreadPoolExecutor(IO_THREADS) as pool:
-        clouds = list(pool.map(_load_npz, [split_dir / "points" / f"{i}.npz" for i in ids]))
+        clouds = list(pool.map(_load_npz, [paths.cloud_file(split_dir, i) for i in ids]))
         sketches = {
-            cam: np.stack(list(pool.map(load_sketch_u8, [split_dir / "sketches" / f"{i}_{cam}.png" for i in ids])))
+            cam: np.stack(list(pool.map(load_sketch_u8, [paths.sketch_file(split_dir, i, cam) for i in ids])))
             for cam in cameras
         }
     fps = np.stack([c[0] for c in clouds])  # (n, F, 3)
@@ -259,7 +248,7 @@ class GeoCodeDataModule(pl.LightningDataModule):
         if name not in self.splits:
             cams = self.cameras if name == "train" else [self.eval_camera]
             cams = cams if "sketch" in self.modalities else []
-            self.splits[name] = load_split(self.root / name, self.recipe, cams)
+            self.splits[name] = load_split(paths.split_of(self.root, name), self.recipe, cams)
         return self.splits[name]
 
     def setup(self, stage: str | None = None) -> None:

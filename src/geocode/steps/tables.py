@@ -1,4 +1,4 @@
-"""Per-sample metrics -> the paper's tables (docs/paper-numbers.md#tables) as CSV, Markdown
+"""The tables step (workflow/rules/tables.smk): per-sample metrics -> the paper's tables (docs/paper-numbers.md#tables) as CSV, Markdown
 and LaTeX, with the paper's values beside ours (no bpy, no torch).
 
 The metrics frame has one row per (domain, variant, condition, id) with the columns
@@ -21,7 +21,7 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
-from geocode.evaluation import FITTED
+from geocode.conditions import FITTED
 from geocode.meshio import write_text
 
 DOMAIN_ORDER = ["chair", "vase", "table", "ceiling_lamp", "cabinet"]
@@ -479,3 +479,29 @@ def write_tables(metrics: pd.DataFrame, cameras: list[dict], out_dir: Path, head
     index += ["", "Figures of inputs, ground truth and predictions: [../report/index.html](../report/index.html)"]
     write_text(out_dir / "README.md", "\n".join(index) + "\n")
     return list(tables)
+
+
+def tables_step(cfg, metrics_files: list[Path], out_dir: Path) -> str:
+    """Every metrics file of the run -> the tables, under a header naming the profile, the
+    config's hash, the test shapes and each variant's epochs."""
+    from geocode.config import config_hash
+    from geocode.meshio import read_parquet
+
+    metrics = pd.concat([read_parquet(p, "rerun the metrics step") for p in metrics_files], ignore_index=True)
+    epochs = ", ".join(f"{v} {epochs_of(cfg, metrics, v)}" for v in sorted(metrics.variant.unique()))
+    shapes = len(metrics[["domain", "id"]].drop_duplicates())    # ids repeat across domains
+    header = (f"profile {cfg.profile_name}, config {config_hash(cfg)}, {shapes} test shapes in "
+              f"{metrics.domain.nunique()} domains; max epochs: {epochs}")
+    cameras = [dict(c) for c in cfg.data.sketch.cameras]
+    names = write_tables(metrics, cameras, out_dir, header)
+    return f"wrote {len(names)} tables to {out_dir}: {', '.join(names)}"
+
+
+def epochs_of(cfg, metrics: pd.DataFrame, variant: str) -> str:
+    """A variant's max epochs, "16" or "16 (vase 20)": the common count, then the domains that differ."""
+    from geocode.config import max_epochs
+
+    counts = {d: max_epochs(cfg, variant, d) for d in sorted(metrics[metrics.variant == variant].domain.unique())}
+    common = max_epochs(cfg, variant, "")
+    others = ", ".join(f"{d} {n}" for d, n in counts.items() if n != common)
+    return f"{common}" + (f" ({others})" if others else "")

@@ -1,0 +1,1 @@
+"""The user's commands on trained models and programs: reconstruct, mix and interpolate."""
