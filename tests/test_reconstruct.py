@@ -67,22 +67,59 @@ def test_every_input_kind_gives_values_mesh_preview_and_blend(files, tmp_path, c
     assert code == 0
     summary = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     stem = name.split(".")[0]
+    drawing = name.endswith(".jpg")
+    per_input = (".yaml", ".obj", ".png", ".blend") + (() if drawing else (".in-place.obj",))
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted(
-        f"{stem}{s}" for s in (".yaml", ".obj", ".png", ".blend"))
+        [f"{stem}{s}" for s in per_input] + ["index.html", "summary.csv", "page"])
     values = yaml.safe_load((tmp_path / f"{stem}.yaml").read_text())
     assert set(values) == {p.name for p in Program.load("vase").parameters}
-    if not name.endswith(".jpg"):
-        assert summary["kind"] == "points" and summary["evaluations"] == 6
+    if not drawing:
+        assert summary["kind"] == ("cloud" if name.startswith("cloud") else "mesh")
+        assert summary["evaluations"] == 6
         assert summary["chamfer_after"] <= summary["chamfer_before"]
 
 
-def test_glb_is_read_y_up(files):
-    from geocode.config import compose
-    from geocode.tools.reconstruct import read_input
+def test_the_in_place_mesh_lies_over_the_input(files, tmp_path):
+    """A vase moved far away and scaled up comes back over itself in its own frame."""
+    mesh = trimesh.load(files["root"] / "vase.obj", process=False)
+    mesh.vertices = mesh.vertices * 40.0 + [100.0, -20.0, 7.0]
+    mesh.export(tmp_path / "far.obj")
+    out = tmp_path / "out"
+    assert main(["reconstruct", "vase", str(tmp_path / "far.obj"), "-o", str(out), "--up", "z",
+                 "--checkpoint", str(files["ckpt"]), "--refine", "4"]) == 0
+    placed = trimesh.load(out / "far.in-place.obj", process=False)
+    assert np.allclose(placed.bounds.mean(0), mesh.bounds.mean(0), atol=0.3 * 40)
+    assert 0.5 < placed.extents.max() / mesh.extents.max() < 2.0
 
-    cfg = compose(["domain=vase"])
-    glb = read_input(files["root"] / "vase.glb", None, cfg.data.points).data
-    obj = read_input(files["root"] / "vase.obj", None, cfg.data.points).data
+
+def test_a_folder_is_reconstructed_with_a_page(files, tmp_path, capsys):
+    """Every input of a folder and its subfolders (equal stems kept apart), a bad one noted
+    on the page without stopping the rest."""
+    folder = tmp_path / "in"
+    (folder / "sub").mkdir(parents=True)
+    for target in (folder / "vase.obj", folder / "sub" / "vase.obj"):
+        target.write_bytes((files["root"] / "vase.obj").read_bytes())
+    (folder / "broken.xyz").write_text("not a cloud\n")
+    out = tmp_path / "out"
+    assert main(["reconstruct", "vase", str(folder), "-o", str(out), "--recursive", "--json",
+                 "--checkpoint", str(files["ckpt"]), "--refine", "3", "--candidates", "2"]) == 0
+    summary = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert summary == {"inputs": 3, "reconstructed": 2, "failed": 1, "page": str(out / "index.html")}
+    assert (out / "vase.blend").exists() and (out / "sub" / "vase.blend").exists()
+    html = (out / "index.html").read_text()
+    assert "sub/vase.obj" in html and "broken.xyz" in html
+    assert len((out / "summary.csv").read_text().strip().splitlines()) == 4
+
+
+def test_a_y_up_file_comes_to_the_same_frame_as_a_z_up_one(files):
+    from geocode.config import compose
+    from geocode.inputs import read_geometry
+    from geocode.tools.reconstruct import Reconstructor
+
+    run = Reconstructor(compose(["domain=vase"]), "vase", files["ckpt"], refine=0, up="y")
+    glb = run.frames(read_geometry(files["root"] / "vase.glb"))[0].samples
+    run.up = "z"
+    obj = run.frames(read_geometry(files["root"] / "vase.obj"))[0].samples
     assert np.allclose(glb.min(0), obj.min(0), atol=0.05) and np.allclose(glb.max(0), obj.max(0), atol=0.05)
 
 

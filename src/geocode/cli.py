@@ -152,14 +152,21 @@ def parser() -> argparse.ArgumentParser:
     c.add_argument("--seed", type=at_least(0), default=0)
     c.set_defaults(run=cmd_gallery)
 
-    c = sub.add_parser("reconstruct", help="a mesh, point cloud or drawing -> parameters, mesh, preview, .blend")
+    c = sub.add_parser("reconstruct", help="meshes, scans, point clouds or drawings -> parameters, "
+                                           "meshes, .blend, a page")
     c.add_argument("domain", choices=domains)
-    c.add_argument("input", type=Path, help="mesh (.obj .ply .stl .glb), cloud (.ply .xyz .npy) or drawing (.png .jpg)")
-    c.add_argument("-o", "--output", required=True, type=output_folder, help="folder for <input>.yaml|obj|png|blend")
+    c.add_argument("input", type=Path, help="a file or a folder of them: mesh (.obj .ply .stl .off .glb "
+                                            ".gltf), cloud (.xyz .txt .pts .csv .npy .npz, .ply) or drawing (.png .jpg)")
+    c.add_argument("-o", "--output", required=True, type=output_folder,
+                   help="folder for <input>.yaml|obj|in-place.obj|png|blend, index.html and summary.csv")
+    c.add_argument("--recursive", action="store_true", help="a folder's subfolders too")
     c.add_argument("--checkpoint", type=Path, help="default: the domain's joint model of the run (paths.runs)")
-    c.add_argument("--refine", type=at_most(5000, "program evaluations", "a fit settles within a few hundred "
-                                          "(eval.fit_budget is 150)", low=0), help="program evaluations of the fit (default eval.fit_budget for clouds and meshes, 0 for drawings)")
-    c.add_argument("--up", choices=["y", "z"], help="the input's up axis (default z; y for glTF)")
+    c.add_argument("--refine", type=at_most(5000, "program evaluations", "the fit's curve flattens well "
+                                          "before (docs/fidelity.md)", low=0),
+                   help="program evaluations of the fit (default eval.reconstruct_budget; drawings: 0)")
+    c.add_argument("--up", default="auto", help="the input's up axis: auto (found), or x, y, z, -x, -y, -z")
+    c.add_argument("--candidates", type=at_most(8, "answers", "more are rarely distinct", low=1), default=1,
+                   help="write the K best distinct fitted programs (ranked on the page)")
     c.add_argument("--json", action="store_true")
     c.set_defaults(run=cmd_reconstruct)
 
@@ -327,7 +334,8 @@ def cmd_reconstruct(args):
 
     cfg = step_config(args, f"domain={args.domain}")
     return reconstruct(cfg, args.domain, args.input, args.output, checkpoint=args.checkpoint,
-                       refine=args.refine, up=args.up)
+                       refine=args.refine, up=args.up, candidates=args.candidates,
+                       recursive=args.recursive)
 
 
 def cmd_mix(args):

@@ -30,7 +30,7 @@ from geocode.points import sample_surface
 
 FIT_POINTS = 2048    # points sampled on each candidate (fixed seed: a deterministic objective)
 SIGMA = 0.15         # CMA-ES's initial step, in units of each coordinate's range
-TRIM = 0.1           # share of each direction's largest distances the fit ignores
+TRIM = 0.02          # share of each direction's largest distances the fit ignores
 RESTARTS = 2         # CMA-ES runs, from the best starts
 ALIGN_STEPS = 3      # closed-form pose steps per evaluation (`align`)
 MAX_TURN = math.pi / 6   # how far `align` may turn a shape from its start's turn
@@ -91,6 +91,7 @@ class FitResult:
     seconds: float
     start: int = 0             # index of the start the best shape came from
     curve: list[float] = field(default_factory=list)   # best distance after each evaluation
+    found: list[tuple[dict[str, float], Pose]] = field(default_factory=list)  # each run's best
 
 
 def trimmed_mean(squared: np.ndarray, trim: float) -> float:
@@ -198,7 +199,7 @@ def fit(program, recipe, starts: Sequence[Start], target: np.ndarray, budget: in
     spaces = [SearchSpace(recipe, Start(program.check(s.values), s.options, s.turn))
               for s in starts[:max(1, budget)]]
     curve: list[float] = []
-    found: dict[int, tuple[float, Pose]] = {}
+    found: dict[int, tuple[float, np.ndarray, Pose]] = {}   # start -> its best (f, x, pose)
 
     def objective(i: int, x: np.ndarray) -> float:
         space = spaces[i]
@@ -212,7 +213,7 @@ def fit(program, recipe, starts: Sequence[Start], target: np.ndarray, budget: in
                 where = align(points, distance, where) if pose else where
                 value = distance(where.apply(points))
         if value < found.get(i, (np.inf,))[0]:
-            found[i] = (value, where)
+            found[i] = (value, np.asarray(x), where)
         curve.append(min(value, curve[-1]) if curve else value)
         return value
 
@@ -226,9 +227,10 @@ def fit(program, recipe, starts: Sequence[Start], target: np.ndarray, budget: in
         x, f = _cma(lambda x, i=int(i): objective(i, x), spaces[i].x0(), share, seed + r)
         if f < best:
             best, best_x, best_i = f, x, int(i)
-    return FitResult(values=spaces[best_i].values(best_x), pose=found[best_i][1], before=before,
+    runs_found = [(spaces[i].values(found[i][1]), found[i][2]) for i in runs if i in found]
+    return FitResult(values=spaces[best_i].values(best_x), pose=found[best_i][2], before=before,
                      after=best, evaluations=len(curve), start=best_i,
-                     seconds=time.perf_counter() - started, curve=curve)
+                     seconds=time.perf_counter() - started, curve=curve, found=runs_found)
 
 
 def _cma(objective, x0: np.ndarray, budget: int, seed: int) -> tuple[np.ndarray, float]:

@@ -139,28 +139,31 @@ def picture_stem(name: str) -> str:
     return f"{safe}-{hashlib.sha1(name.encode()).hexdigest()[:8]}"
 
 
-def render_entry(entry: Entry, out_dir: str | Path, render: Render | None = None) -> Entry:
+def render_entry(entry: Entry, out_dir: str | Path, render: Render | None = None,
+                 place: Callable[[Path], Path] | None = None) -> Entry:
     """Write `entry`'s pictures under `<out_dir>/page/` (input, result, line drawing of the
     result for a drawing, candidates) and record their paths in `entry.pictures` and each
-    candidate's `picture`. Nothing to draw for a failed input."""
+    candidate's `picture`. Nothing to draw for a failed input. `place` maps each picture's
+    path to the one to write instead (e.g. a name reserved by `geocode.outputs.Outputs`)."""
     if entry.error is not None:
         return entry
     render = render or blender_render
+    place = place or (lambda path: path)
     out_dir, stem = Path(out_dir), f"{PICTURES}/{picture_stem(entry.name)}"
     pictures = {"input": f"{stem}-input.png", "result": f"{stem}-result.png"}
     started = time.perf_counter()
     if entry.kind == "drawing":
-        save_drawing(entry.input, out_dir / pictures["input"])
+        save_drawing(entry.input, place(out_dir / pictures["input"]))
         if entry.result_drawing is not None:
             pictures["result_drawing"] = f"{stem}-result-drawing.png"
-            save_drawing(entry.result_drawing, out_dir / pictures["result_drawing"])
+            save_drawing(entry.result_drawing, place(out_dir / pictures["result_drawing"]))
     else:
         shape = cloud_mesh(entry.input) if entry.kind == "cloud" else entry.input
-        render(shape, out_dir / pictures["input"], color=INPUT_COLOR, size=SIZE)
-    render(entry.result, out_dir / pictures["result"], size=SIZE)
+        render(shape, place(out_dir / pictures["input"]), color=INPUT_COLOR, size=SIZE)
+    render(entry.result, place(out_dir / pictures["result"]), size=SIZE)
     for rank, candidate in enumerate(entry.candidates, start=2):
         candidate.picture = f"{stem}-candidate{rank}.png"
-        render(candidate.mesh, out_dir / candidate.picture, size=THUMB)
+        render(candidate.mesh, place(out_dir / candidate.picture), size=THUMB)
     entry.pictures = pictures
     log.debug("page %s: %d pictures in %.2f s", entry.name, len(pictures) + len(entry.candidates),
               time.perf_counter() - started)

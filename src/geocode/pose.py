@@ -191,18 +191,23 @@ WEIGHTS = {
 }
 
 
-def up_axis(points: np.ndarray, domain: str | None = None, seed: int = 0) -> tuple[np.ndarray, str]:
-    """The rotation (3x3) that brings the input's up axis to +z, and that axis ("+y").
+def up_candidates(points: np.ndarray, domain: str | None = None, k: int = 1, seed: int = 0) -> list[str]:
+    """The `k` likeliest up axes ("+y", ...), best first.
 
     Each signed axis is scored by `axis_features` @ `WEIGHTS[domain]` (the domain's own
-    weights where it has them, else the general ones); the best wins. Uses a seeded
-    subsample of FEATURE_POINTS points, and percentile ranges, so a million-point scan costs
-    as much as a small one and a few outliers do not move the slabs."""
+    weights where it has them, else the general ones). Uses a seeded subsample of
+    FEATURE_POINTS points, and percentile ranges, so a million-point scan costs as much as a
+    small one and a few outliers do not move the slabs."""
     pts = np.asarray(points, dtype=np.float64)
     if len(pts) > FEATURE_POINTS:
         pts = pts[generator(seed, "pose", "up").choice(len(pts), FEATURE_POINTS, replace=False)]
     scores = axis_features(pts) @ np.asarray(WEIGHTS.get(domain or "", WEIGHTS[""]))
-    label = AXES[int(np.argmax(scores))]
+    return [AXES[i] for i in np.argsort(-scores, kind="stable")[:k]]
+
+
+def up_axis(points: np.ndarray, domain: str | None = None, seed: int = 0) -> tuple[np.ndarray, str]:
+    """The rotation (3x3) that brings the input's likeliest up axis to +z, and that axis."""
+    label = up_candidates(points, domain, 1, seed)[0]
     return axis_rotation(label), label
 
 

@@ -238,7 +238,8 @@ class Eval(Group):
     variants: each(Name) = key("model variants the workflow trains and evaluates")
     ablations: each(Name) = key("decoder ablations trained for the ablation domains")
     ablation_domains: each(Name) = key("domains whose ablations are trained (the paper: the chair)")
-    fit_budget: whole(0) = key("program evaluations of a fit (`geocode reconstruct --refine`, eval.fit)")
+    fit_budget: whole(0) = key("program evaluations of each test shape's fit (eval.fit)")
+    reconstruct_budget: whole(0) = key("program evaluations of the fit of `geocode reconstruct` (--refine)")
     fit: each(Name) = key("point-cloud test conditions (pc, pc-noise0.02, ...) whose predictions are also "
                           "fitted: a '+ fit' row or column")
 

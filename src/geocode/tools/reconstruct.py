@@ -1,125 +1,51 @@
-"""`geocode reconstruct`: a user's mesh, point cloud or sketch -> the program's parameters,
-its mesh, a preview and an editable .blend.
+"""`geocode reconstruct`: a user's meshes, scans, point clouds or drawings -> the program's
+parameters, its mesh (in the program's frame and back over the input), an editable .blend,
+and a page of every input beside its result.
 
-Inputs are brought to the training data's form: meshes are normalised to the unit sphere and
-sampled as the dataset's clouds are (farthest points + random points); point clouds are
-normalised the same way; a drawing of any size and stroke width is cropped to its strokes,
-scaled to the sketches' extent, its strokes thinned or thickened to theirs (2 px), and
-binarised onto a 224x224 white canvas. The network predicts each parameter's class; for
-clouds, `fit` then searches the program's parameters for the shape nearest the input.
+A mesh or cloud (any file `geocode.inputs` reads) is brought to the training data's frame:
+its up axis found (`--up auto`, `geocode.pose`; with auto, the two likeliest axes are both
+tried), centred and scaled to the unit sphere, and sampled as the dataset's clouds are. The
+network then sees it at TURNS turns about its up axis in one batch (the front of a real shape
+is anyone's guess), and the nearest training shapes join its answers as starts; `geocode.fit`
+scores every start and searches the program's parameters and the shape's pose from the best.
+A drawing of any size and stroke width is cropped to its strokes, scaled to the sketches'
+extent, its strokes thinned or thickened to theirs (2 px), and binarised onto a 224x224 white
+canvas; the network alone answers it.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import logging
+import math
+import time
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 import trimesh
+import yaml
 from PIL import Image
 from scipy import ndimage
 
-from geocode.errors import UserError, one_line
+from geocode import pose as poses
+from geocode.errors import UserError
+from geocode.fit import CloudDistance, FitResult, Pose, Start, fit, network_starts, shape_points
+from geocode.inputs import CLOUD_SUFFIXES, MESH_SUFFIXES, Geometry, read_geometry, surface_points
 from geocode.meshio import normalise_unit_sphere
-from geocode.points import farthest_point_sampling, sample_surface
+from geocode.points import farthest_point_sampling
 
-MESHES = (".obj", ".ply", ".stl", ".glb", ".gltf")
-CLOUDS = (".xyz", ".npy")      # .ply without faces is a cloud too
+log = logging.getLogger(__name__)
+
 IMAGES = (".png", ".jpg", ".jpeg")
-MIN_POINTS = 100
+SUFFIXES = MESH_SUFFIXES + CLOUD_SUFFIXES + IMAGES
 SKETCH_SIZE = 224
 SKETCH_EXTENT = 191            # median extent of the strokes in the dataset's sketches (px)
 STROKE = 2.0                   # their stroke width (px)
-OUTPUTS = (".yaml", ".obj", ".png", ".blend")
-
-
-@dataclass
-class UserInput:
-    path: Path
-    kind: str                          # "points" or "sketch"
-    data: np.ndarray                   # the network's input: (N, 3) or (1, 224, 224) float32
-
-
-def read_input(path: str | Path, up: str | None, points_cfg) -> UserInput:
-    """The network input of a mesh, cloud or drawing file; ValueError naming the file."""
-    path = Path(path)
-    suffix = path.suffix.lower()
-    if suffix not in MESHES + CLOUDS + IMAGES:
-        raise UserError(f"{path}: unknown input kind {suffix or '(none)'}; give a mesh "
-                         f"({', '.join(MESHES)}), a cloud ({', '.join(CLOUDS)}, .ply) or a "
-                         f"drawing ({', '.join(IMAGES)})")
-    if not path.is_file():
-        raise UserError(f"{path}: no such file; check the path")
-    if path.stat().st_size == 0:
-        raise UserError(f"{path}: the file is empty; give a mesh, a point cloud or a drawing")
-    if suffix in IMAGES:
-        return UserInput(path, "sketch", sketch_from_image(path))
-    points, mesh = _read_geometry(path)
-    up = up or ("y" if suffix in (".glb", ".gltf") else "z")   # glTF is Y-up by definition
-    rng = np.random.default_rng(0)
-    if mesh is not None:
-        mesh = trimesh.Trimesh(z_up(mesh.vertices, up), mesh.faces, process=False)
-        points = sample_surface(normalise_unit_sphere(mesh), points_cfg.surface, rng)
-    else:
-        points = unit_sphere(z_up(points, up), path)
-    return UserInput(path, "points", network_cloud(points, points_cfg, rng))
-
-
-def _read_geometry(path: Path) -> tuple[np.ndarray | None, trimesh.Trimesh | None]:
-    """(points, None) for a cloud file, (None, mesh) for a mesh file."""
-    suffix = path.suffix.lower()
-    try:
-        if suffix == ".npy":
-            points = np.load(path, allow_pickle=False)
-        elif suffix == ".xyz":
-            points = np.loadtxt(path, ndmin=2, usecols=(0, 1, 2))
-        else:
-            loaded = trimesh.load(path, process=False)
-            if isinstance(loaded, trimesh.Scene):
-                loaded = loaded.to_geometry() if loaded.geometry else None
-            if isinstance(loaded, trimesh.Trimesh) and len(loaded.faces):
-                return None, _finite_mesh(loaded, path)
-            points = getattr(loaded, "vertices", None)
-    except Exception as exc:  # numpy and trimesh raise many types for a broken file
-        raise UserError(path, f"not a readable {suffix} file ({one_line(exc, 120)})",
-                        "export it again from its tool") from None
-    points = np.asarray(points if points is not None else np.zeros((0, 3)), dtype=np.float64)
-    if points.ndim != 2 or points.shape[1] != 3:
-        raise UserError(f"{path}: expected N x 3 coordinates, got shape {points.shape}; "
-                        "give one point (x y z) per row")
-    if not np.isfinite(points).all():
-        raise UserError(f"{path}: {int((~np.isfinite(points)).any(axis=1).sum())} points have "
-                         "NaN or infinite coordinates; remove them")
-    if len(points) < MIN_POINTS:
-        raise UserError(f"{path}: {len(points)} points; give at least {MIN_POINTS}")
-    return points, None
-
-
-def _finite_mesh(mesh: trimesh.Trimesh, path: Path) -> trimesh.Trimesh:
-    if not np.isfinite(mesh.vertices).all():
-        raise UserError(f"{path}: the mesh has NaN or infinite vertices; repair it")
-    if not mesh.area > 0:
-        raise UserError(f"{path}: the mesh has no surface area; give a mesh with faces")
-    return mesh
-
-
-def z_up(points: np.ndarray, up: str) -> np.ndarray:
-    """Coordinates in our convention (Z up) from a Y-up or Z-up file."""
-    points = np.asarray(points, dtype=np.float64)
-    if up == "z":
-        return points
-    if up == "y":   # a quarter turn about X: (x, y, z) -> (x, -z, y)
-        return np.stack([points[:, 0], -points[:, 2], points[:, 1]], axis=1)
-    raise UserError(f"--up {up}: give y or z")
-
-
-def unit_sphere(points: np.ndarray, path: Path) -> np.ndarray:
-    """Centre on the bounding-box centre, farthest point at distance 1 (as meshes are)."""
-    centred = points - (points.min(axis=0) + points.max(axis=0)) / 2
-    radius = np.linalg.norm(centred, axis=1).max()
-    if not radius > 0:
-        raise UserError(f"{path}: all points coincide; give a cloud with some extent")
-    return centred / radius
+TURNS = 8                      # turns about the up axis at which the network sees a 3D input
+UP_CANDIDATES = 2              # up axes tried with --up auto
+NEAREST = 3                    # nearest training shapes added to the starts
+TARGET_POINTS = 4096           # points of the input the fit compares with
+SCORE_POINTS = 10000           # points each of the reported (plain) Chamfer distances
 
 
 def network_cloud(points: np.ndarray, points_cfg, rng: np.random.Generator) -> np.ndarray:
@@ -173,66 +99,291 @@ def centre_lines(strokes: np.ndarray, reach: int) -> np.ndarray:
     return strokes & (depth >= ridge - 1.0)
 
 
+# -- one input -----------------------------------------------------------------------------------
+
+@dataclass
+class Frame:
+    """A 3D input in the canonical frame of one up axis: `pose` (input -> canonical), its
+    surface samples there, and the network's cloud of them."""
+
+    pose: poses.Pose
+    samples: np.ndarray
+    cloud: np.ndarray
+
+
+@dataclass
+class Answer:
+    """One fitted program: raw values, where it sits on the canonical input, its distance."""
+
+    values: dict[str, float]
+    where: Pose
+    chamfer: float
+
+
+@dataclass
+class Reconstruction:
+    path: Path
+    kind: str                          # "mesh", "cloud" or "drawing"
+    answers: list[Answer]              # best first; [0] is the result
+    frame: Frame | None = None         # 3D inputs
+    network: float | None = None       # plain Chamfer distance of the network's best answer
+    geometry: Geometry | None = None
+    drawing: np.ndarray | None = None  # (1, 224, 224), drawings
+    fit: FitResult | None = None
+    summary: dict = field(default_factory=dict)
+
+
+class Reconstructor:
+    """What every input of one run shares: the program, the model, the training shapes."""
+
+    def __init__(self, cfg, domain: str, checkpoint: Path | None = None,
+                 refine: int | None = None, up: str = "auto", candidates: int = 1):
+        from geocode import paths
+        from geocode.checkpoints import check_checkpoint, default_checkpoint, load_model
+        from geocode.program import Program
+
+        self.cfg, self.domain, self.up, self.candidates = cfg, domain, up, candidates
+        self.program = Program.load(domain)
+        self.recipe = self.program.recipe()
+        self.checkpoint = checkpoint or default_checkpoint(cfg, domain)
+        if not self.checkpoint.is_file():
+            raise UserError(
+                f"{self.checkpoint}: no trained {domain} model; run `snakemake -j2 results/tables` "
+                f"(or `geocode train domain={domain}`) first, or pass --checkpoint")
+        self.model = load_model(self.checkpoint)
+        check_checkpoint(self.model, self.recipe, self.checkpoint, domain)
+        if up != "auto":
+            poses.axis_rotation(up)               # a bad --up: one line before any work
+        self.refine_given = refine
+        self.refine = cfg.eval.reconstruct_budget if refine is None else refine
+        self.training = training_shapes(paths.split_dir(cfg, domain, "train"))
+
+    def __call__(self, path: Path) -> Reconstruction:
+        started = time.perf_counter()
+        if path.suffix.lower() in IMAGES:
+            result = self.drawing(path)
+        else:
+            result = self.shape(path)
+        result.summary.update(input=str(path), kind=result.kind, checkpoint=str(self.checkpoint),
+                              seconds=round(time.perf_counter() - started, 2))
+        return result
+
+    def drawing(self, path: Path) -> Reconstruction:
+        from geocode.checkpoints import ranked_prediction
+
+        if self.refine_given:
+            raise UserError(f"--refine {self.refine_given}", "fitting needs a 3D input (mesh or cloud)",
+                            "give --refine 0 for a drawing")
+        sketch = sketch_from_image(path)
+        values, _ = ranked_prediction(self.model, self.recipe, "sketch", sketch, self.cfg.eval.decode)
+        return Reconstruction(path, "drawing", [Answer(self.program.check(values), Pose(), math.nan)],
+                              drawing=sketch)
+
+    def shape(self, path: Path) -> Reconstruction:
+        geometry = read_geometry(path)
+        frames = self.frames(geometry)
+        starts = [self.starts(frame) for frame in frames]
+        plain = [CloudDistance(f.samples[:TARGET_POINTS], trim=0.0) for f in frames]
+        scored = [min(((plain[i](s_pose(s).apply(self.points(s.values))), s) for s in ss),
+                      key=lambda t: t[0]) for i, ss in enumerate(starts)]
+        i = int(np.argmin([d for d, _ in scored]))          # the up axis whose best start is nearest
+        frame, network_start = frames[i], scored[i][1]
+        result = Reconstruction(path, geometry.kind, [], frame, geometry=geometry)
+        result.network = self.score(frame, network_start.values, s_pose(network_start))
+        if self.refine > 0:   # the fit
+            result.fit = fit(self.program, self.recipe, starts[i], frame.samples[:TARGET_POINTS],
+                             self.refine, seed=self.cfg.seed, restarts=max(2, self.candidates))
+            fitted = [Answer(v, w, self.score(frame, v, w)) for v, w in result.fit.found]
+            network = Answer(self.program.check(network_start.values), s_pose(network_start), result.network)
+            result.answers = distinct_answers([*fitted, network], self.candidates)
+        else:
+            result.answers = [Answer(self.program.check(network_start.values), s_pose(network_start),
+                                     result.network)]
+        best = result.answers[0]
+        result.summary.update(
+            note=geometry.note, up=frame.pose.up, pose=best.where.to_dict(),
+            chamfer_before=round(result.network, 6), chamfer_after=round(best.chamfer, 6),
+            **({"evaluations": result.fit.evaluations} if result.fit else {}))
+        return result
+
+    def frames(self, geometry: Geometry) -> list[Frame]:
+        rng = np.random.default_rng(self.cfg.seed)
+        samples = surface_points(geometry, self.cfg.data.points.surface, rng)
+        ups = (poses.up_candidates(samples, self.domain, UP_CANDIDATES) if self.up == "auto"
+               else [self.up])
+        extent = geometry.mesh.vertices if geometry.mesh is not None else None
+        frames = []
+        for up in ups:
+            pose = poses.find_pose(samples, up=up, domain=self.domain, extent=extent)
+            canonical = pose.to_canonical(samples).astype(np.float32)
+            frames.append(Frame(pose, canonical, network_cloud(canonical, self.cfg.data.points, rng)))
+        return frames
+
+    def starts(self, frame: Frame) -> list[Start]:
+        """The network's answers at every turn, then the nearest training shapes (each with
+        the network's discrete options of the nearest turn after its own values)."""
+        starts = network_starts(self.model, self.recipe, frame.cloud, TURNS, self.cfg.eval.decode)
+        if self.training is None:
+            return starts
+        nearest = []
+        for match in self.training.matches(frame.samples[:SCORE_POINTS], NEAREST):
+            values = yaml.safe_load(match.mesh_path.with_suffix(".yaml").read_text())
+            turn = min(starts, key=lambda s: abs(math.remainder(s.turn - match.turn, 2 * math.pi)))
+            options = {name: list(dict.fromkeys([float(values[name]), *o]))
+                       for name, o in turn.options.items() if name in values}
+            nearest.append(Start(self.program.check(values), options, match.turn))
+        return starts + nearest
+
+    def points(self, values: dict, n: int = 2048) -> np.ndarray:
+        return shape_points(self.program, self.program.check(values), n)
+
+    def score(self, frame: Frame, values: dict, where: Pose) -> float:
+        """The plain Chamfer distance (SCORE_POINTS each, squared, mean of both directions / 2)
+        between the input and a posed shape, on the input's unit sphere."""
+        from geocode.metrics import chamfer
+
+        return chamfer(where.apply(self.points(values, SCORE_POINTS)), frame.samples[:SCORE_POINTS])
+
+    def mesh(self, answer: Answer) -> trimesh.Trimesh:
+        """The answer's mesh posed on the canonical input (part labels kept)."""
+        mesh = normalise_unit_sphere(self.program.evaluate(answer.values))
+        posed = trimesh.Trimesh(answer.where.apply(mesh.vertices), mesh.faces, process=False)
+        posed.metadata.update(mesh.metadata)
+        return posed
+
+
+def s_pose(start: Start) -> Pose:
+    return Pose(turn=start.turn)
+
+
+def distinct_answers(answers: list[Answer], k: int) -> list[Answer]:
+    """The k best answers whose values differ (rounded), best first."""
+    out, seen = [], set()
+    for answer in sorted(answers, key=lambda a: a.chamfer):
+        key = tuple(sorted((n, round(v, 3)) for n, v in answer.values.items()))
+        if key not in seen:
+            seen.add(key)
+            out.append(answer)
+    return out[:max(1, k)]
+
+
+def training_shapes(split_dir: Path):
+    """The run's training shapes for retrieval, or None (with a line) where there are none."""
+    from geocode.retrieval import TrainingShapes
+
+    try:
+        return TrainingShapes.from_split(split_dir)
+    except ValueError:
+        log.info("%s: no training shapes; the network's answers alone start the fit", split_dir)
+        return None
+
+
 # -- the command --------------------------------------------------------------------------------
 
-def reconstruct(cfg, domain: str, input_path: Path, out_dir: Path,
-                checkpoint: Path | None = None, refine: int | None = None,
-                up: str | None = None) -> dict:
-    """Predict (and for clouds, fit) the program's parameters for one input file and write
-    <stem>.yaml, .obj, .png (input beside result) and .blend into `out_dir`: all four, or
-    none where any step fails (each is reserved before the work, see `geocode.outputs`)."""
+def inputs_of(path: Path, recursive: bool) -> list[Path]:
+    """The input files: `path` itself, or the files of the folder with a known suffix."""
+    if not path.exists():
+        raise UserError(f"{path}: no such file or folder; check the path")
+    if path.is_file():
+        return [path]
+    found = sorted(p for p in (path.rglob("*") if recursive else path.iterdir())
+                   if p.is_file() and p.suffix.lower() in SUFFIXES)
+    if not found:
+        raise UserError(path, "no mesh, cloud or drawing files in the folder"
+                        + ("" if recursive else " (--recursive reads subfolders)"),
+                        f"give a folder of {', '.join(SUFFIXES)} files")
+    return found
+
+
+def reconstruct(cfg, domain: str, input_path: Path, out_dir: Path, checkpoint: Path | None = None,
+                refine: int | None = None, up: str = "auto", candidates: int = 1,
+                recursive: bool = False) -> dict:
+    """Reconstruct one input file, or every input of a folder, into `out_dir`: per input
+    <name>.yaml, .obj, .in-place.obj (3D inputs), .png and .blend (all of them, or none where
+    that input fails), and `index.html` + `summary.csv` over all inputs."""
+    from geocode import page
+    from geocode.timing import Progress
+
+    files = inputs_of(Path(input_path), recursive)
+    root = Path(input_path) if Path(input_path).is_dir() else Path(input_path).parent
+    run = Reconstructor(cfg, domain, checkpoint, refine, up, candidates)
+    progress = Progress(f"reconstruct {domain}", len(files), log, every=0.0 if len(files) > 1 else 1e9)
+    entries, summaries = [], []
+    for path in files:
+        name = path.relative_to(root).as_posix()
+        try:
+            result = run(path)
+            entry = write_outputs(run, result, out_dir / Path(name).with_suffix(""), out_dir, name)
+            summaries.append(result.summary)
+        except UserError as exc:
+            if len(files) == 1:
+                raise
+            log.warning("%s", exc)
+            entry = page.Entry(name=name, kind="", error=str(exc))
+            summaries.append({"input": str(path), "error": str(exc)})
+        entries.append(entry)
+        progress.step()
+    if len(files) > 1:
+        progress.finish()
+    page.write_page(entries, out_dir, f"geocode reconstruct {domain}",
+                    note="Chamfer distance to the input: unit sphere, squared, mean of both directions / 2")
+    if len(files) == 1:
+        return summaries[0]
+    done = [s for s in summaries if "error" not in s]
+    return {"inputs": len(files), "reconstructed": len(done), "failed": len(files) - len(done),
+            "page": str(out_dir / "index.html")}
+
+
+def write_outputs(run: Reconstructor, result: Reconstruction, stem: Path, out_dir: Path, name: str):
+    """One input's files (reserved first: all of them or none) and its page entry."""
+    from geocode import page
+    from geocode.blender.gallery import grid
+    from geocode.meshio import obj_text
     from geocode.outputs import Outputs
-
-    with Outputs() as out:
-        files = {suffix: out.reserve(out_dir / f"{input_path.stem}{suffix}") for suffix in OUTPUTS}
-        return _reconstruct(cfg, domain, input_path, files, checkpoint, refine, up)
-
-
-def _reconstruct(cfg, domain: str, input_path: Path, files: dict[str, Path],
-                 checkpoint: Path | None, refine: int | None, up: str | None) -> dict:
-    from geocode.checkpoints import (
-        check_checkpoint,
-        default_checkpoint,
-        load_model,
-        ranked_prediction,
-    )
-    from geocode.fit import Start, fit
-    from geocode.program import Program
-
-    program = Program.load(domain)
-    user_input = read_input(input_path, up, cfg.data.points)
-    checkpoint = checkpoint or default_checkpoint(cfg, domain)
-    if not checkpoint.is_file():
-        raise UserError(
-            f"{checkpoint}: no trained {domain} model; run `snakemake -j2 results/tables` (or "
-            f"`geocode train domain={domain}`) first, or pass --checkpoint")
-    recipe = program.recipe()
-    model = load_model(checkpoint)
-    check_checkpoint(model, recipe, checkpoint, domain)
-    start, options = ranked_prediction(model, recipe, user_input.kind, user_input.data, cfg.eval.decode)
-    if refine is None:
-        refine = cfg.eval.fit_budget if user_input.kind == "points" else 0
-    summary = {"input": str(input_path), "kind": user_input.kind, "checkpoint": str(checkpoint)}
-    values = program.check(start)
-    if refine > 0:
-        if user_input.kind != "points":
-            raise UserError("--refine: fitting needs a 3D input (mesh or cloud); give --refine 0 "
-                             "for a drawing")
-        result = fit(program, recipe, [Start(start, options)], user_input.data, refine, seed=cfg.seed)
-        values = result.values
-        summary.update(chamfer_before=round(result.before, 6), chamfer_after=round(result.after, 6),
-                       evaluations=result.evaluations, fit_seconds=round(result.seconds, 2))
-    write_outputs(program, values, user_input, files)
-    return summary
-
-
-def write_outputs(program, values: dict, user_input: UserInput, files: dict[str, Path]) -> None:
-    """The values (.yaml), mesh (.obj), preview (.png) and program with its modifier set to
-    `values` (.blend), each to its file in `files` (by suffix)."""
-    from geocode.blender.gallery import render_preview
     from geocode.tools.editing import write_shape
 
-    mesh = write_shape(files[".obj"], files[".yaml"], program, values)
-    render_preview(user_input, mesh, files[".png"])
-    program.evaluate(values)             # the modifier now holds the values: save them with it
-    program.save_blend(files[".blend"])
+    suffixes = [".yaml", ".obj", ".png", ".blend"] + ([".in-place.obj"] if result.frame else [])
+    best = result.answers[0]
+    with Outputs() as out:
+        files = {s: out.reserve(stem.parent / f"{stem.name}{s}") for s in suffixes}
+        write_shape(files[".obj"], files[".yaml"], run.program, best.values)
+        posed = run.mesh(best)
+        if result.frame is not None:
+            in_place = result.frame.pose.to_input_frame(posed.vertices)
+            files[".in-place.obj"].write_text(obj_text(in_place, posed.faces))
+        links = {s.lstrip("."): files_link(stem, s, out_dir) for s in suffixes if s != ".png"}
+        entry = page.Entry(
+            name=name, kind=result.kind, result=posed, seconds=result.summary.get("seconds"),
+            input=result.drawing[0] if result.kind == "drawing" else input_shape(result),
+            before=result.network, after=best.chamfer if result.fit else None,
+            pose=pose_facts(result), parameters=best.values, links=links,
+            candidates=[page.Candidate(run.mesh(a), a.chamfer, {}) for a in result.answers[1:]])
+        placed: dict[Path, Path] = {}
+        page.render_entry(entry, out_dir, place=lambda p: placed.setdefault(p, out.reserve(p)))
+        pictures = [Image.open(placed[out_dir / entry.pictures[k]]).convert("RGB")
+                    for k in ("input", "result")]
+        grid(pictures, ["input", "result"], columns=2).save(files[".png"], format="PNG")
+        run.program.evaluate(best.values)     # the modifier now holds the values: save them with it
+        run.program.save_blend(files[".blend"])
+    return entry
+
+
+def files_link(stem: Path, suffix: str, out_dir: Path) -> str:
+    return (stem.parent / f"{stem.name}{suffix}").relative_to(out_dir).as_posix()
+
+
+def input_shape(result: Reconstruction):
+    """The input in the canonical frame, for its picture: the mesh itself, or the cloud."""
+    geometry, frame = result.geometry, result.frame
+    if geometry.mesh is not None:
+        return trimesh.Trimesh(frame.pose.to_canonical(geometry.mesh.vertices), geometry.mesh.faces,
+                               process=False)
+    return frame.samples
+
+
+def pose_facts(result: Reconstruction) -> dict:
+    if result.frame is None:
+        return {}
+    return {"up": result.frame.pose.up, **result.answers[0].where.to_dict()}
+
+
