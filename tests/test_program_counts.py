@@ -8,7 +8,8 @@ import pytest
 
 pytest.importorskip("bpy")
 
-from geocode.program import Program, programs_dir, registry  # noqa: E402
+from geocode.paths import programs_dir  # noqa: E402
+from geocode.program import Program, registry  # noqa: E402
 
 pytestmark = pytest.mark.blender
 
