@@ -29,7 +29,7 @@ def metrics() -> pd.DataFrame:
         row("gt", np.nan, stable=1.0, i=0), row("gt", np.nan, stable=1.0, i=1),
         row("pc", 0.005, noise=0.02), row("pc", 0.007, sparse=512),
         row("pc", 0.0015, source="s10"), row("sketch", 0.0035, source="s10", camera="az35"),
-        row("baseline", 0.02),
+        row("baseline", 0.02), row("nearest", 0.004, i=0), row("nearest", 0.006, i=1),
     ]
     return pd.DataFrame(rows)
 
@@ -41,6 +41,8 @@ def test_tables_hold_the_means_beside_the_paper():
     assert abs(t.loc["vase", "sketch"] - 0.003) < 1e-12       # trained cameras only
     assert t.loc["vase", "pc (paper)"] == 0.00264
     assert t.loc["vase mean-shape baseline", "pc"] == 0.02
+    assert t.loc["vase nearest training shape", "pc"] == 0.005   # retrieval, beside ours
+    assert "pc p" in t and np.isfinite(t.loc["vase nearest training shape", "pc p"])
     assert tables["camera_angles"].loc["vase", "novel"] == 0.010
     assert tables["noise"].loc["vase", "0.02"] == 0.005
     assert tables["noise"].loc["vase", "0"] == 0.002

@@ -194,8 +194,14 @@ def parser() -> argparse.ArgumentParser:
     c.set_defaults(run=cmd_addon_build)
 
     c = sub.add_parser("bench", help="measure a stage's throughput")
-    c.add_argument("stage", choices=["program", "dataset", "train", "epoch", "eval", "fit"])
-    c.add_argument("domain", nargs="?", default="vase", choices=domains)
+    c.add_argument("stage", choices=["program", "dataset", "train", "epoch", "eval", "fit", "real"])
+    c.add_argument("domain", nargs="?", default="vase",
+                   help=f"the domain ({', '.join(domains)}); real: the folder of <domain>/ subfolders")
+    c.add_argument("--up-truth", type=Path, help="real: YAML {file pattern: up axis} for the baselines "
+                                                 "and the up axis agreement")
+    c.add_argument("--budget", type=at_most(5000, "program evaluations", "the fit's curve flattens well "
+                                          "before (docs/fidelity.md)", low=0),
+                   help="real: the fit's evaluations (default eval.reconstruct_budget)")
     c.add_argument("--n", type=at_most(10000, "shapes", "a rate settles within a few hundred"),
                    help="shapes (program: 200, fit: 20 test shapes)")
     c.add_argument("--clouds", type=at_most(100000, "clouds", "ten paper-scale epochs; the time grows with it"),
@@ -391,6 +397,14 @@ def cmd_gallery(args):
 
 
 def cmd_bench(args):
+    if args.stage == "real":
+        from geocode.bench.real import bench_real, real_table
+
+        result = bench_real(args.overrides, args.domain, args.up_truth, args.budget)
+        return result if args.json else real_table(result)
+    if args.domain not in registry_domains():
+        raise UserError(f"bench {args.stage} {args.domain}", "unknown domain",
+                        f"give one of {', '.join(registry_domains())}")
     if args.stage == "program":
         from geocode.bench.program import bench_program
 
@@ -419,6 +433,12 @@ def cmd_bench(args):
     from geocode.bench.evaluate import bench_eval
 
     return bench_eval(args.domain)
+
+
+def registry_domains() -> list[str]:
+    from geocode.config import registry
+
+    return registry()
 
 
 def cmd_timings(args):

@@ -201,6 +201,23 @@ def fit_prediction(cfg: DictConfig, domain: str, program, recipe, row: dict, val
 
 # -- metrics ----------------------------------------------------------------------------------
 
+NEAREST = "nearest"   # the retrieval baseline's condition and modality
+
+
+def nearest_rows(cfg: DictConfig, domain: str, gt_meshes: dict) -> list[dict]:
+    """The retrieval baseline: each test shape's distance to the nearest training shape
+    (`geocode.retrieval`: plain Chamfer, best of four quarter-turns)."""
+    from geocode.retrieval import TrainingShapes
+
+    start = time.perf_counter()
+    shapes = TrainingShapes.from_split(paths.split_dir(cfg, domain, "train"))
+    rows = [dict(condition=NEAREST, modality=NEAREST, source="test", camera="", noise=0.0, sparse=0,
+                 id=i, chamfer=shapes.nearest(mesh, n=cfg.eval.chamfer_points).chamfer, stable=np.nan)
+            for i, mesh in gt_meshes.items()]
+    log.info("nearest training shapes of %d test shapes in %.1f s", len(rows), time.perf_counter() - start)
+    return rows
+
+
 def hangs(cfg: DictConfig, domain: str) -> bool:
     """Whether the domain's program hangs (its manifest says so): a drop test does not apply."""
     return bool(json.loads(paths.manifest_path(cfg, domain).read_text()).get("hangs", False))
@@ -233,6 +250,7 @@ def metrics_step(cfg: DictConfig, domain: str, variant: str, predictions: Path, 
             cd = chamfer_meshes(pred, gt, n=cfg.eval.chamfer_points, rng=rng)
             rows.append({**rec, "id": gt_id, "chamfer": cd, "stable": stable})
     if full:
+        rows += nearest_rows(cfg, domain, gt_meshes)
         rows += [dict(condition="gt", modality="gt", source="test", camera="", noise=0.0, sparse=0,
                       id=i, chamfer=np.nan, stable=np.nan if hanging else float(drop_test(m)["stable"]))
                  for i, m in gt_meshes.items()]

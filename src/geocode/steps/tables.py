@@ -168,19 +168,23 @@ def _clean(m: pd.DataFrame) -> pd.DataFrame:
     return m[(m.source == "test") & (m.noise == 0) & (m["sparse"] == 0)]
 
 
-def pc_vs_sketch(m: pd.DataFrame, trained: list[str]) -> Cells:
-    """Ours on clean inputs, plus the mean-shape baseline as its own row per domain."""
-    out = {}
+def pc_vs_sketch(m: pd.DataFrame, trained: list[str]) -> tuple[Cells, dict[str, str]]:
+    """Ours on clean inputs, plus two baselines as rows of their own per domain, each compared
+    with ours (paired test): the mean shape, and the nearest training shape (retrieval)."""
+    out, against = {}, {}
     clean = _clean(m[m.variant == "joint"])
     for domain, d in clean.groupby("domain"):
         out[(domain, "pc")] = per_shape(d[d.modality == "pc"])
         out[(domain, "sketch")] = per_shape(_trained(d[d.modality == "sketch"], trained))
         if (d.modality == FITTED).any():
             out[(domain, "pc + fit")] = per_shape(d[d.modality == FITTED])
-        base = d[d.modality == "baseline"]
-        if len(base):
-            out[(f"{domain} mean-shape baseline", "pc")] = out[(f"{domain} mean-shape baseline", "sketch")] = per_shape(base)
-    return out
+        for modality, row in (("baseline", "mean-shape baseline"), ("nearest", "nearest training shape")):
+            base = d[d.modality == modality]
+            if len(base):
+                for column in [c for r, c in out if r == domain]:
+                    out[(f"{domain} {row}", column)] = per_shape(base)
+                against[f"{domain} {row}"] = domain
+    return out, against
 
 
 def camera_angles(m: pd.DataFrame, trained: list[str], novel: list[str]) -> Cells:

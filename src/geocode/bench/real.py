@@ -1,0 +1,113 @@
+"""`geocode bench real <folder>`: `geocode reconstruct` on real shapes, against its baselines.
+
+The folder holds one subfolder per domain (`chair/`, `table/`, ...) of meshes, scans or clouds
+that no program made. For each file it runs the reconstruction as `geocode reconstruct` does
+(its pose found: `--up auto`, the front searched) and scores, by the plain symmetric Chamfer
+distance (10,000 surface points each on the input's unit sphere, squared, mean of both
+directions / 2):
+
+    network    the network's best answer over the turns, in the pose the tool found
+    fit        network + fit, in the pose the tool found
+    defaults   the program's default shape, at the best of four quarter-turns
+    nearest    the nearest training shape (`geocode.retrieval`), at the best of four quarter-turns
+
+The two baselines are given the true up axis where `up_truth` names it (a YAML mapping of file
+name patterns to axes, first match wins, e.g. `{"*.off": z, "*": y}`), else the one found.
+"""
+
+from __future__ import annotations
+
+import fnmatch
+import math
+import statistics
+import time
+from pathlib import Path
+
+import yaml
+
+from geocode.errors import UserError
+from geocode.fit import Pose
+
+QUARTER_TURNS = [Pose(turn=k * math.pi / 2) for k in range(4)]
+
+
+def read_up_truth(path: Path | None) -> list[tuple[str, str]]:
+    if path is None:
+        return []
+    try:
+        table = yaml.safe_load(Path(path).read_text())
+    except (OSError, yaml.YAMLError) as exc:
+        raise UserError(path, f"not a readable YAML file ({exc})", "give {pattern: axis, ...}") from None
+    if not isinstance(table, dict):
+        raise UserError(path, "not a mapping", "give {pattern: axis, ...}, e.g. {'*.off': z, '*': y}")
+    return [(str(k), str(v)) for k, v in table.items()]
+
+
+def true_up(name: str, table: list[tuple[str, str]]) -> str | None:
+    axis = next((axis for pattern, axis in table if fnmatch.fnmatch(name, pattern)), None)
+    return None if axis is None else (axis if axis[:1] in "+-" else "+" + axis)
+
+
+def bench_real(overrides: list[str], folder: Path, up_truth: Path | None = None,
+               budget: int | None = None) -> dict:
+    """Per domain subfolder: the medians of the four distances, their ratios to the nearest
+    training shape, seconds per shape and how often the up axis found is the true one."""
+    from geocode.config import compose, registry
+    from geocode.tools.reconstruct import SUFFIXES, Reconstructor
+
+    folder, table = Path(folder), read_up_truth(up_truth)
+    domains = [d for d in registry() if (folder / d).is_dir()]
+    if not domains:
+        raise UserError(folder, "no subfolder named after a domain", f"make {', '.join(registry())} subfolders")
+    out = {}
+    for domain in domains:
+        files = sorted(p for p in (folder / domain).iterdir() if p.suffix.lower() in SUFFIXES)
+        run = Reconstructor(compose([*overrides, f"domain={domain}"]), domain, refine=budget)
+        rows = [score_file(run, path, true_up(path.name, table)) for path in files]
+        out[domain] = summarise(rows)
+    return out
+
+
+def score_file(run, path: Path, truth: str | None) -> dict:
+    started = time.perf_counter()
+    result = run(path)
+    seconds = time.perf_counter() - started
+    up = run.up
+    run.up = truth or result.frame.pose.up       # the baselines: the true up axis where known
+    frame = run.frames(result.geometry)[0]
+    run.up = up
+    defaults = min(run.score(frame, {}, turn) for turn in QUARTER_TURNS)
+    nearest = (run.training.matches(frame.samples, 1)[0].chamfer
+               if run.training is not None else math.nan)
+    return {"file": path.name, "network": result.network, "fit": result.answers[0].chamfer,
+            "defaults": defaults, "nearest": nearest, "seconds": seconds,
+            "up": result.frame.pose.up, "up_true": truth}
+
+
+def summarise(rows: list[dict]) -> dict:
+    median = {k: statistics.median(r[k] for r in rows) for k in ("network", "fit", "defaults", "nearest")}
+    seconds = [r["seconds"] for r in rows]
+    known = [r for r in rows if r["up_true"] is not None]
+    return {
+        "shapes": len(rows),
+        **{f"median_{k}": round(v, 6) for k, v in median.items()},
+        "fit_vs_nearest": round(median["fit"] / median["nearest"], 3),
+        "network_vs_nearest": round(median["network"] / median["nearest"], 3),
+        "seconds_median": round(statistics.median(seconds), 1),
+        "seconds_range": [round(min(seconds), 1), round(max(seconds), 1)],
+        "up_agrees": f"{sum(r['up'] == r['up_true'] for r in known)}/{len(known)}",
+        "files": [{k: (round(v, 6) if isinstance(v, float) else v) for k, v in r.items()} for r in rows],
+    }
+
+
+def real_table(result: dict) -> str:
+    """The medians per domain as a Markdown table (the files stay in --json)."""
+    head = ("| domain | shapes | network | network + fit | defaults | nearest training shape | "
+            "fit / nearest | network / nearest | s per shape (range) | up found |")
+    lines = [head, "|" + "---|" * 10]
+    for domain, r in result.items():
+        lines.append(f"| {domain} | {r['shapes']} | {r['median_network']:.4f} | {r['median_fit']:.4f} | "
+                     f"{r['median_defaults']:.4f} | {r['median_nearest']:.4f} | {r['fit_vs_nearest']} | "
+                     f"{r['network_vs_nearest']} | {r['seconds_median']} ({r['seconds_range'][0]}-"
+                     f"{r['seconds_range'][1]}) | {r['up_agrees']} |")
+    return "\n".join(lines)
