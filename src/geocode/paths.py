@@ -163,12 +163,27 @@ def csv_log_files(run: Path) -> list[Path]:
     return sorted(Path(run).glob("logs/version_*/metrics.csv"), key=lambda f: int(f.parent.name.split("_")[1]))
 
 
+def card_file(run: Path) -> Path:
+    """The model card: what the model saw, its numbers, what it is for (geocode.card)."""
+    return run / "README.md"
+
+
+def real_bench_file(run: Path) -> Path:
+    """`geocode bench real`'s numbers for this model, read by its card."""
+    return run / "real-bench.json"
+
+
 def predictions_file(run: Path) -> Path:
     return Path(run) / "eval" / "predictions.parquet"
 
 
 def metrics_file(run: Path) -> Path:
     return Path(run) / "eval" / "metrics.parquet"
+
+
+def run_of(path: Path) -> Path:
+    """The run folder of one of its checkpoints or evaluation files."""
+    return Path(path).parent.parent
 
 
 def rebuilt_dir(predictions: Path) -> Path:

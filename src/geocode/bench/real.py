@@ -18,6 +18,7 @@ name patterns to axes, first match wins, e.g. `{"*.off": z, "*": y}`), else the 
 from __future__ import annotations
 
 import fnmatch
+import json
 import math
 import statistics
 import time
@@ -65,7 +66,19 @@ def bench_real(overrides: list[str], folder: Path, up_truth: Path | None = None,
         run = Reconstructor(compose([*overrides, f"domain={domain}"]), domain, refine=budget)
         rows = [score_file(run, path, true_up(path.name, table)) for path in files]
         out[domain] = summarise(rows)
+        record(run.checkpoint, out[domain])
     return out
+
+
+def record(checkpoint: Path, numbers: dict) -> None:
+    """Keep the numbers beside the model, for its card."""
+    from geocode import paths
+    from geocode.card import write_card
+    from geocode.meshio import write_text
+
+    run = paths.run_of(checkpoint)
+    write_text(paths.real_bench_file(run), json.dumps(numbers, indent=1) + "\n")
+    write_card(run)
 
 
 def score_file(run, path: Path, truth: str | None) -> dict:

@@ -19,6 +19,7 @@ import pandas as pd
 from omegaconf import DictConfig
 
 from geocode import paths
+from geocode.card import write_card
 from geocode.conditions import FITTED, MODALITY_NAMES, conditions, robustness, unfitted
 from geocode.config import NAME
 from geocode.errors import UserError
@@ -256,4 +257,5 @@ def metrics_step(cfg: DictConfig, domain: str, variant: str, predictions: Path, 
                  for i, m in gt_meshes.items()]
     frame = pd.DataFrame(rows).assign(domain=domain, variant=variant)
     write_parquet(out, frame)
+    write_card(paths.run_of(out))
     return f"{domain}/{variant}: {len(frame)} metric rows"

@@ -19,6 +19,7 @@ from omegaconf import DictConfig, OmegaConf
 
 from geocode import paths
 from geocode import settings as schema
+from geocode.card import write_card
 from geocode.checkpoints import (  # noqa: F401  (load_model, predict, predict_classes: this module's API too)
     CheckpointError,
     check_recipe,
@@ -168,6 +169,7 @@ def train(cfg: DictConfig, out_dir: str | Path | None = None) -> dict:
         "program": program,
     }
     write_text(paths.summary_file(out), json.dumps(result, indent=1) + "\n")
+    write_card(out)
     log.info("trained %s: %s", cfg.domain.name, result)
     return result
 
