@@ -194,14 +194,16 @@ def parser() -> argparse.ArgumentParser:
     c.set_defaults(run=cmd_addon_build)
 
     c = sub.add_parser("bench", help="measure a stage's throughput")
-    c.add_argument("stage", choices=["program", "dataset", "train", "epoch", "eval", "fit", "real"])
+    c.add_argument("stage", choices=["program", "dataset", "train", "epoch", "eval", "fit", "real", "span"])
     c.add_argument("domain", nargs="?", default="vase",
                    help=f"the domain ({', '.join(domains)}); real: the folder of <domain>/ subfolders")
+    c.add_argument("folder", nargs="?", type=Path, help="span: the folder of real shapes")
+    c.add_argument("-o", "--output", type=output_folder, help="span: the folder of its page")
     c.add_argument("--up-truth", type=Path, help="real: YAML {file pattern: up axis} for the baselines "
                                                  "and the up axis agreement")
     c.add_argument("--budget", type=at_most(5000, "program evaluations", "the fit's curve flattens well "
                                           "before (docs/fidelity.md)", low=0),
-                   help="real: the fit's evaluations (default eval.reconstruct_budget)")
+                   help="real: the fit's evaluations (default eval.reconstruct_budget); span: 2000")
     c.add_argument("--n", type=at_most(10000, "shapes", "a rate settles within a few hundred"),
                    help="shapes (program: 200, fit: 20 test shapes)")
     c.add_argument("--clouds", type=at_most(100000, "clouds", "ten paper-scale epochs; the time grows with it"),
@@ -397,11 +399,19 @@ def cmd_gallery(args):
 
 
 def cmd_bench(args):
+    if args.folder is not None and args.stage != "span":   # a key=value override, not a folder
+        args.overrides = [str(args.folder), *args.overrides]
     if args.stage == "real":
         from geocode.bench.real import bench_real, real_table
 
         result = bench_real(args.overrides, args.domain, args.up_truth, args.budget)
         return result if args.json else real_table(result)
+    if args.stage == "span":
+        from geocode.bench.span import bench_span
+
+        if args.folder is None:
+            raise UserError("bench span", "no folder of real shapes", "give: geocode bench span <domain> <folder>")
+        return bench_span(args.overrides, args.domain, args.folder, args.budget, args.up_truth, args.output)
     if args.domain not in registry_domains():
         raise UserError(f"bench {args.stage} {args.domain}", "unknown domain",
                         f"give one of {', '.join(registry_domains())}")

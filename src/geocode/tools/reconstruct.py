@@ -137,14 +137,21 @@ class Reconstructor:
     """What every input of one run shares: the program, the model, the training shapes."""
 
     def __init__(self, cfg, domain: str, checkpoint: Path | None = None,
-                 refine: int | None = None, up: str = "auto", candidates: int = 1):
+                 refine: int | None = None, up: str = "auto", candidates: int = 1, model: bool = True):
         from geocode import paths
         from geocode.checkpoints import check_checkpoint, default_checkpoint, load_model
         from geocode.program import Program
 
         self.cfg, self.domain, self.up, self.candidates = cfg, domain, up, candidates
+        if up != "auto":
+            poses.axis_rotation(up)               # a bad --up: one line before any work
         self.program = Program.load(domain)
         self.recipe = self.program.recipe()
+        self.refine_given = refine
+        self.refine = cfg.eval.reconstruct_budget if refine is None else refine
+        self.model = self.training = None
+        if not model:                             # the pose and the scores alone (bench span)
+            return
         self.checkpoint = checkpoint or default_checkpoint(cfg, domain)
         if not self.checkpoint.is_file():
             raise UserError(
@@ -152,10 +159,6 @@ class Reconstructor:
                 f"(or `geocode train domain={domain}`) first, or pass --checkpoint")
         self.model = load_model(self.checkpoint)
         check_checkpoint(self.model, self.recipe, self.checkpoint, domain)
-        if up != "auto":
-            poses.axis_rotation(up)               # a bad --up: one line before any work
-        self.refine_given = refine
-        self.refine = cfg.eval.reconstruct_budget if refine is None else refine
         self.training = training_shapes(paths.split_dir(cfg, domain, "train"))
 
     def __call__(self, path: Path) -> Reconstruction:
