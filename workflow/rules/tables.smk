@@ -29,7 +29,7 @@ rule report:
         log_path(CFG.paths.runs, "report"),
     params:
         args=" ".join(shlex.quote(o) for o in OVERRIDES),
-        out=str(paths.report_dir(CFG)),
+        out=lambda w: str(paths.report_dir(CFG)),
     threads: 1
     resources:
         mem_mb=3000,
