@@ -194,11 +194,16 @@ def test_random_values_cover_ranges_reproducibly(toy):
     draws = [toy.random_values(np.random.default_rng(7)) for _ in range(2)]
     assert draws[0] == draws[1]
     many = [toy.random_values(np.random.default_rng(seed)) for seed in range(200)]
+    learned = {p.name: p for p in toy.recipe().parameters}
     for p in toy.parameters:
         values = np.array([d[p.name] for d in many])
-        assert values.min() >= p.min and values.max() <= p.max
+        if p.name not in learned:          # not in the recipe: stays at its default
+            assert set(values) == {p.default}
+            continue
+        r = learned[p.name]
+        assert values.min() >= r.min and values.max() <= r.max
         if p.kind != "float":
-            assert set(values) == set(range(int(p.min), int(p.max) + 1))
+            assert set(values) == set(range(int(r.min), int(r.max) + 1))
 
 
 def test_bench_reports_speed_and_validity(toy):

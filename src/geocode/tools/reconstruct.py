@@ -187,9 +187,10 @@ class Reconstructor:
         frames = self.frames(geometry)
         starts = [self.starts(frame) for frame in frames]
         plain = [CloudDistance(f.samples[:TARGET_POINTS], trim=0.0) for f in frames]
-        scored = [min(((plain[i](s_pose(s).apply(self.points(s.values))), s) for s in ss),
+        # the network's best answer per up axis (its first TURNS starts: the rest are retrieved)
+        scored = [min(((plain[i](s_pose(s).apply(self.points(s.values))), s) for s in ss[:TURNS]),
                       key=lambda t: t[0]) for i, ss in enumerate(starts)]
-        i = int(np.argmin([d for d, _ in scored]))          # the up axis whose best start is nearest
+        i = int(np.argmin([d for d, _ in scored]))          # the up axis whose answer is nearest
         frame, network_start = frames[i], scored[i][1]
         result = Reconstruction(path, geometry.kind, [], frame, geometry=geometry)
         result.network = self.score(frame, network_start.values, s_pose(network_start))
