@@ -18,7 +18,7 @@ USE = ("Recovers the parameters of the `{domain}` program (programs/{domain}.py)
        "or a line drawing: `geocode reconstruct {domain} <file or folder> -o out/`.")
 LIMITS = [
     "It knows only the shapes its program can make; a real object of another form comes back as "
-    "the program's nearest form (docs/fidelity.md, Shapes in the wild).",
+    "the program's nearest form (docs/wild.md).",
     "It was trained on synthetic shapes in the program's own frame: a real input needs the pose "
     "search and the fit of `geocode reconstruct`, and without them it does worse than simply "
     "taking the nearest training shape.",

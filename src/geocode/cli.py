@@ -162,7 +162,7 @@ def parser() -> argparse.ArgumentParser:
     c.add_argument("--recursive", action="store_true", help="a folder's subfolders too")
     c.add_argument("--checkpoint", type=Path, help="default: the domain's joint model of the run (paths.runs)")
     c.add_argument("--refine", type=at_most(5000, "program evaluations", "the fit's curve flattens well "
-                                          "before (docs/fidelity.md)", low=0),
+                                          "before (docs/wild.md)", low=0),
                    help="program evaluations of the fit (default eval.reconstruct_budget; drawings: 0)")
     c.add_argument("--up", default="auto", help="the input's up axis: auto (found), or x, y, z, -x, -y, -z")
     c.add_argument("--candidates", type=at_most(8, "answers", "more are rarely distinct", low=1), default=1,
@@ -202,7 +202,7 @@ def parser() -> argparse.ArgumentParser:
     c.add_argument("--up-truth", type=Path, help="real: YAML {file pattern: up axis} for the baselines "
                                                  "and the up axis agreement")
     c.add_argument("--budget", type=at_most(5000, "program evaluations", "the fit's curve flattens well "
-                                          "before (docs/fidelity.md)", low=0),
+                                          "before (docs/wild.md)", low=0),
                    help="real: the fit's evaluations (default eval.reconstruct_budget); span: 2000")
     c.add_argument("--n", type=at_most(10000, "shapes", "a rate settles within a few hundred"),
                    help="shapes (program: 200, fit: 20 test shapes)")

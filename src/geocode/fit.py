@@ -11,7 +11,7 @@ centring on the bounding box is biased where a scan misses a side.
 The search restarts from the best few starts (the network's answer at several turns of the
 input), and returns the best shape seen, so fitting never makes the distance worse than the
 best start. The distance it minimises tolerates partial scans and outliers
-(`CloudDistance`, docs/fidelity.md#the-fit).
+(`CloudDistance`, docs/wild.md).
 """
 
 from __future__ import annotations
