@@ -39,10 +39,12 @@ MAX_ELEVATION = 60.0     # degrees
 MAX_ROLL = 10.0          # degrees either way
 SCALE_SPAN = 1.4         # the scale within [s / 1.4, s * 1.4] of the start's s
 SHIFT_SPAN = 30.0        # px either way of the start's shift
-RESTARTS = 3             # CMA-ES runs, from the best starts
+RESTARTS = 1             # searches, from the best starts
 BUDGET = 400             # default program evaluations (docs: the curve in the report)
 SIGMA = 0.08             # CMA-ES's initial step on a parameter, in units of its range
 CAMERA_SIGMA = (0.05, 0.05, 0.1, 0.05, 0.05, 0.05)   # ... on the camera's coordinates
+STEPS = (0.15, 0.075, 0.04) # the best start's continuous parameters one at a time first, by
+                         # these shares of their ranges in turn
 CACHE = 8                # shapes kept between evaluations (the starts share theirs)
 
 
@@ -170,13 +172,20 @@ def fit_drawing(program, recipe, starts: Sequence[Start], drawing: np.ndarray,
     x0s = [np.concatenate([space.x0(), cams.x0()]) for space, cams in spaces]
     scores = [objective(i, x) for i, x in enumerate(x0s[:max(1, budget)])]
     order = np.argsort(scores, kind="stable")
-    best_i, best_x, best = int(order[0]), x0s[order[0]], float(scores[order[0]])
-    before = best
+    before = float(scores[order[0]])
+    # from each of the best starts: its discrete choices one at a time, then CMA-ES on all
+    best, best_x, best_i = math.inf, x0s[order[0]], int(order[0])
     runs = order[:max(1, min(restarts, len(order)))]
     for r, i in enumerate(runs):
+        x, f = sweep_discrete(lambda x, i=int(i): objective(i, x), spaces[i][0], x0s[i], scores[i],
+                              budget - len(curve))
+        for step in STEPS if r == 0 else ():
+            x, f = sweep_continuous(lambda x, i=int(i): objective(i, x), spaces[i][0], x, f,
+                                    budget - len(curve), step)
         share = (budget - len(curve)) // (len(runs) - r)
-        stds = np.concatenate([np.full(len(x0s[i]) - 6, SIGMA), CAMERA_SIGMA])
-        x, f = cma_search(lambda x, i=int(i): objective(i, x), x0s[i], stds, share, seed + r)
+        stds = np.concatenate([np.full(len(x) - 6, SIGMA), CAMERA_SIGMA])
+        y, g = cma_search(lambda x, i=int(i): objective(i, x), x, stds, share, seed + r)
+        x, f = (y, g) if g < f else (x, f)
         if f < best:
             best, best_x, best_i = f, x, int(i)
     space, cams = spaces[best_i]
@@ -184,6 +193,51 @@ def fit_drawing(program, recipe, starts: Sequence[Start], drawing: np.ndarray,
     return DrawingFit(values=space.values(best_x[:n]), camera=cams.view(best_x[n:]), before=before,
                       after=best, evaluations=len(curve), seconds=time.perf_counter() - started,
                       start=best_i, curve=curve)
+
+
+def sweep_discrete(objective, space: SearchSpace, x: np.ndarray, f: float,
+                   budget: int) -> tuple[np.ndarray, float]:
+    """Greedy: each discrete parameter in turn tries its other candidate values (the network's
+    next choices), keeping any that lowers `objective`; at most `budget` evaluations. CMA-ES
+    moves a discrete coordinate only as one of dozens at once, so that a wrong class of the
+    network (a leg or slat count) is rarely corrected without this sweep."""
+    x, used = np.array(x, dtype=np.float64), 0
+    first = len(space.continuous)
+    for j, (_, values) in enumerate(space.discrete):
+        for k in range(1, len(values)):
+            if used >= budget:
+                return x, f
+            y = x.copy()
+            y[first + j] = (k + 0.5) / len(values)
+            g = objective(y)
+            used += 1
+            if g < f:
+                x, f = y, g
+    return x, f
+
+
+def sweep_continuous(objective, space: SearchSpace, x: np.ndarray, f: float, budget: int,
+                     step: float = 0.15) -> tuple[np.ndarray, float]:
+    """Greedy: each continuous parameter in turn tries +-`step` of its range (the second side
+    only when the first does not help), keeping what lowers `objective`; at most `budget`
+    evaluations. Most parameters change one part of the drawing; one at a time, each change
+    is judged on its own, where a population of random moves of all of them at once mixes
+    good and bad ones."""
+    x, used = np.array(x, dtype=np.float64), 0
+    for j in range(len(space.continuous)):
+        for sign in (1.0, -1.0):
+            if used >= budget:
+                return x, f
+            y = x.copy()
+            y[j] = np.clip(y[j] + sign * step, 0.0, 1.0)
+            if y[j] == x[j]:
+                continue
+            g = objective(y)
+            used += 1
+            if g < f:
+                x, f = y, g
+                break
+    return x, f
 
 
 def cma_search(objective, x0: np.ndarray, stds: np.ndarray, budget: int,
@@ -311,3 +365,31 @@ def renderer_agreement(domains: Sequence[str], n: int, seed: int = 0) -> dict:
                            "ours_max": round(float(np.max(same)), 3),
                            "other_shapes": round(float(np.mean(other)), 3)}
     return out
+
+
+def freestyle_drawing(mesh, view: View) -> np.ndarray:
+    """Freestyle's drawing (blender/sketch.py, needs bpy) of a unit-sphere mesh from `view`:
+    rendered from its azimuth and elevation, then rolled, scaled and shifted in the image as
+    `View.project` does (p - m = s R(roll) (q - m) + shift about the image centre m; nearest
+    pixel), for scoring a fit's answer with the dataset's own renderer. (224, 224) float32,
+    white 1, strokes 0."""
+    import tempfile
+    from pathlib import Path
+
+    from scipy import ndimage
+
+    from geocode.blender.sketch import Camera, renderer
+    from geocode.training_data import load_sketch
+
+    freestyle = renderer(SIZE)
+    freestyle.set_mesh(mesh.vertices, mesh.faces)
+    with tempfile.TemporaryDirectory() as tmp:
+        png = Path(tmp) / "view.png"
+        freestyle.render(Camera("fit", view.azimuth, view.elevation), png)
+        image = load_sketch(png)[0]
+    c, s = math.cos(math.radians(view.roll)), math.sin(math.radians(view.roll))
+    inverse = np.array([[c, -s], [s, c]]) / view.scale      # (row, col) of the source per target
+    m = SIZE / 2
+    shift = np.array([view.offset[1], view.offset[0]])
+    offset = m - 0.5 - inverse @ (m - 0.5 + shift)
+    return ndimage.affine_transform(image, inverse, offset=offset, order=0, cval=1.0)
