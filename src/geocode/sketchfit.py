@@ -218,13 +218,13 @@ def sweep_discrete(objective, space: SearchSpace, x: np.ndarray, f: float,
 
 def sweep_continuous(objective, space: SearchSpace, x: np.ndarray, f: float, budget: int,
                      step: float = 0.15) -> tuple[np.ndarray, float]:
-    """Greedy: each continuous parameter in turn tries +-`step` of its range (the second side
-    only when the first does not help), keeping what lowers `objective`; at most `budget`
-    evaluations. Most parameters change one part of the drawing; one at a time, each change
-    is judged on its own, where a population of random moves of all of them at once mixes
-    good and bad ones."""
+    """Greedy: each continuous parameter, then each camera coordinate (the last six), in turn
+    tries +-`step` in the unit box (the second side only when the first does not help),
+    keeping what lowers `objective`; at most `budget` evaluations. Most parameters change one
+    part of the drawing; one at a time, each change is judged on its own, where a population
+    of random moves of all of them at once mixes good and bad ones."""
     x, used = np.array(x, dtype=np.float64), 0
-    for j in range(len(space.continuous)):
+    for j in [*range(len(space.continuous)), *range(len(x) - 6, len(x))]:
         for sign in (1.0, -1.0):
             if used >= budget:
                 return x, f
