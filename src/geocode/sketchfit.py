@@ -177,9 +177,10 @@ def fit_drawing(program, recipe, starts: Sequence[Start], drawing: np.ndarray,
     best, best_x, best_i = math.inf, x0s[order[0]], int(order[0])
     runs = order[:max(1, min(restarts, len(order)))]
     for r, i in enumerate(runs):
-        x, f = sweep_discrete(lambda x, i=int(i): objective(i, x), spaces[i][0], x0s[i], scores[i],
-                              budget - len(curve))
-        for step in STEPS if r == 0 else ():
+        x, f = x0s[i], scores[i]
+        for step in STEPS if r == 0 else STEPS[:1]:
+            x, f = sweep_discrete(lambda x, i=int(i): objective(i, x), spaces[i][0], x, f,
+                                  budget - len(curve))
             x, f = sweep_continuous(lambda x, i=int(i): objective(i, x), spaces[i][0], x, f,
                                     budget - len(curve), step)
         share = (budget - len(curve)) // (len(runs) - r)
