@@ -107,8 +107,10 @@ class Outline:
         f = self.faces
         half = np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1)
         owner = np.tile(np.arange(len(f)), 3)
-        edges, inverse, counts = np.unique(half, axis=0, return_inverse=True, return_counts=True)
-        inverse = inverse.ravel()
+        n = max(len(self.vertices), 1)
+        keys, inverse, counts = np.unique(half[:, 0] * n + half[:, 1], return_inverse=True,
+                                          return_counts=True)   # one integer per edge: fast
+        edges = np.stack([keys // n, keys % n], axis=1)
         order = np.argsort(inverse, kind="stable")
         first = np.concatenate([[0], np.cumsum(counts)[:-1]])
         two = counts == 2

@@ -67,7 +67,7 @@ class DrawingFit:
     values: dict[str, float]   # every program parameter, raw
     camera: View               # the view of the unit-sphere shape that draws like the input
     before: float              # the best start's drawing distance (px)
-    after: float               # ... the fitted shape's (<= before)
+    after: float               # ... the fitted shape's (<= before; the curve adds the prior)
     evaluations: int
     seconds: float
     start: int = 0             # index of the start (camera guess x framing) it came from
@@ -208,8 +208,11 @@ def fit_drawing(program, recipe, starts: Sequence[Start], drawing: np.ndarray,
             best, best_x, best_i = f, x, int(i)
     space, cams = spaces[best_i]
     n = len(best_x) - 6
-    return DrawingFit(values=space.values(best_x[:n]), camera=cams.view(best_x[n:]), before=before,
-                      after=best, evaluations=len(curve), seconds=time.perf_counter() - started,
+    values, camera = space.values(best_x[:n]), cams.view(best_x[n:])
+    outline = shapes(values)
+    after = best if outline is None else distance(strokes(outline, camera))   # less the prior
+    return DrawingFit(values=values, camera=camera, before=before, after=min(after, best),
+                      evaluations=len(curve), seconds=time.perf_counter() - started,
                       start=best_i, curve=curve)
 
 
