@@ -1,0 +1,416 @@
+"""Fit a program to a drawing: search its parameters and the camera for the shape whose line
+drawing (`geocode.linedraw`, a numpy stand-in for the dataset's Freestyle sketches, within
+~0.2 px of them) is nearest the drawing's strokes (`linedraw.drawing_distance`).
+
+The search space is `geocode.fit`'s unit box over the recipe's parameters (continuous over
+their range, discrete among the network's top choices) plus six camera coordinates:
+azimuth within AZIMUTH_SPAN degrees of its start (the starts go all around), elevation over
+0..MAX_ELEVATION degrees (free-hand drawings are often frontal or side views), roll within
++-MAX_ROLL degrees, a scale within a factor SCALE_SPAN of its start and a shift within
++-SHIFT_SPAN px.
+
+The starts are the network's answer seen from each of CAMERA_GUESSES (the dataset's two
+trained views and their mirror images; frontal, side and back views from low down), each
+framed twice: as the dataset frames a unit-sphere shape (scale 1, no shift) and with its
+strokes' bounding box on the drawing's (as `reconstruct.sketch_from_image` frames a user's
+drawing). Every start is scored first. From the best RESTARTS of them the search then goes,
+for each step of STEPS: every discrete parameter's other choices one at a time, then every
+continuous parameter and camera coordinate +-step one at a time, keeping what helps
+(coordinate sweeps: one parameter mostly moves one part of the drawing, and the network's
+answer is near, so single moves judged alone beat a population of 60-dimensional random
+moves at these budgets); then CMA-ES with per-coordinate steps on everything with what is
+left. The objective adds to the drawing distance PRIOR * |x - x0|^2 over the parameters'
+unit-box coordinates (x0: the start's): one view leaves depth undecided, and where the
+drawing does not tell, the network's answer should stand (on chair test sketches it took the
+fitted Chamfer distance from 0.7x to about 0.5x of the network's). The best shape seen is
+the answer, so the fit never ends farther from the drawing than
+its best start.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+import warnings
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from geocode.fit import SearchSpace, Start
+from geocode.linedraw import SIZE, DrawingDistance, Outline, View, stroke_mask, strokes
+from geocode.meshio import normalise_unit_sphere
+
+# (azimuth, elevation) degrees: the dataset's trained views and their mirror images, views
+# every 20 degrees of azimuth from the front to either side at the dataset's elevation, then
+# frontal, side and back views from low down
+CAMERA_GUESSES = ((35.0, 30.0), (55.0, 30.0), (-35.0, 30.0), (-55.0, 30.0),
+                  *((float(a), 30.0) for a in range(-80, 81, 20)),
+                  (0.0, 10.0), (90.0, 10.0), (-90.0, 10.0), (180.0, 10.0))
+AZIMUTH_SPAN = 60.0      # degrees either side of the start's azimuth
+MAX_ELEVATION = 60.0     # degrees
+MAX_ROLL = 10.0          # degrees either way
+SCALE_SPAN = 1.4         # the scale within [s / 1.4, s * 1.4] of the start's s
+SHIFT_SPAN = 30.0        # px either way of the start's shift
+RESTARTS = 1             # searches, from the best starts
+BUDGET = 800             # default evaluations: chair test sketches, Chamfer 0.54x of the network at 400, 0.43x at 800
+SIGMA = 0.08             # CMA-ES's initial step on a parameter, in units of its range
+CAMERA_SIGMA = (0.05, 0.05, 0.1, 0.05, 0.05, 0.05)   # ... on the camera's coordinates
+STEPS = (0.15, 0.075, 0.04) # the best start's continuous parameters one at a time first, by
+                         # these shares of their ranges in turn
+PRIOR = 0.3              # px per squared unit-box move of the parameters from the start
+CACHE = 8                # shapes kept between evaluations (the starts share theirs)
+
+
+@dataclass
+class DrawingFit:
+    values: dict[str, float]   # every program parameter, raw
+    camera: View               # the view of the unit-sphere shape that draws like the input
+    before: float              # the best start's drawing distance (px)
+    after: float               # ... the fitted shape's (<= before; the curve adds the prior)
+    evaluations: int
+    seconds: float
+    start: int = 0             # index of the start (camera guess x framing) it came from
+    curve: list[float] = field(default_factory=list)   # best distance after each evaluation
+
+
+class CameraSpace:
+    """Six unit-box coordinates <-> a `View` around a start view: azimuth, elevation, roll,
+    log-scale, shift x, shift y (each coordinate's middle, 0.5, is the start's value, except
+    the elevation, which spans 0..MAX_ELEVATION absolutely)."""
+
+    def __init__(self, start: View):
+        self.start = start
+
+    def x0(self) -> np.ndarray:
+        el = float(np.clip(self.start.elevation / MAX_ELEVATION, 0.0, 1.0))
+        return np.array([0.5, el, 0.5, 0.5, 0.5, 0.5])
+
+    def view(self, x: np.ndarray) -> View:
+        x = np.clip(np.asarray(x, dtype=np.float64), 0.0, 1.0)
+        s = self.start
+        return View(azimuth=s.azimuth + (2 * x[0] - 1) * AZIMUTH_SPAN,
+                    elevation=x[1] * MAX_ELEVATION,
+                    roll=s.roll + (2 * x[2] - 1) * MAX_ROLL,
+                    scale=s.scale * SCALE_SPAN ** (2 * x[3] - 1),
+                    offset=(s.offset[0] + (2 * x[4] - 1) * SHIFT_SPAN,
+                            s.offset[1] + (2 * x[5] - 1) * SHIFT_SPAN))
+
+
+def bounding_box(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """(centre (x, y), extent (w, h)) of a stroke mask's pixels, None when blank."""
+    ys, xs = np.nonzero(mask)
+    if len(xs) == 0:
+        return None
+    lo, hi = np.array([xs.min(), ys.min()]), np.array([xs.max() + 1, ys.max() + 1])
+    return (lo + hi) / 2, hi - lo
+
+
+def framed(view: View, ours: np.ndarray, target: np.ndarray) -> View:
+    """`view` scaled and shifted so that the bounding box of `ours` (its strokes, drawn from
+    `view`) lands on the target's: scale s = (w_t + h_t) / (w_o + h_o) about the image centre
+    m, shift = c_t - m - s (c_o - m) (+ the view's own shift, scaled)."""
+    a, b = bounding_box(ours), bounding_box(target)
+    if a is None or b is None:
+        return view
+    s = float(np.sum(b[1]) / max(np.sum(a[1]), 1.0))
+    m = SIZE / 2
+    shift = b[0] - m - s * (a[0] - m - np.asarray(view.offset))
+    return View(view.azimuth, view.elevation, view.roll, view.scale * s,
+                (float(shift[0]), float(shift[1])))
+
+
+class Shapes:
+    """The program's unit-sphere outlines by parameter values, the last CACHE kept (the
+    starts share one shape; a refused combination is None)."""
+
+    def __init__(self, program):
+        self.program = program
+        self.kept: dict[tuple, Outline | None] = {}
+
+    def __call__(self, values: dict[str, float]) -> Outline | None:
+        key = tuple(sorted(values.items()))
+        if key not in self.kept:
+            try:
+                mesh = normalise_unit_sphere(self.program.evaluate(values))
+                self.kept[key] = Outline(mesh.vertices, mesh.faces)
+            except ValueError:   # a combination the program refuses, or a degenerate mesh
+                self.kept[key] = None
+            if len(self.kept) > CACHE:
+                self.kept.pop(next(iter(self.kept)))
+        return self.kept[key]
+
+
+def camera_starts(shapes: Shapes, values: dict, target: np.ndarray,
+                  guesses: Sequence[tuple[float, float]] = CAMERA_GUESSES) -> list[View]:
+    """Each camera guess twice: the dataset's framing (scale 1, no shift), and the start
+    shape's strokes framed on the drawing's (`framed`)."""
+    outline = shapes(values)
+    views = []
+    for az, el in guesses:
+        view = View(az, el)
+        views.append(view)
+        if outline is not None:
+            views.append(framed(view, strokes(outline, view), target))
+    return views
+
+
+def fit_drawing(program, recipe, starts: Sequence[Start], drawing: np.ndarray,
+                budget: int = BUDGET, seed: int = 0, restarts: int = RESTARTS,
+                guesses: Sequence[tuple[float, float]] = CAMERA_GUESSES) -> DrawingFit:
+    """Search at most `budget` program evaluations for the parameters and camera whose line
+    drawing is nearest `drawing` ((224, 224) or (1, 224, 224) float, white 1, strokes 0, as
+    `reconstruct.sketch_from_image` or `training_data.load_sketch` give), by
+    `linedraw.drawing_distance`. Each of `starts` (the network's answer, with its discrete
+    options) is tried from every camera guess and framing; all are scored, then the sweeps
+    and CMA-ES (module docstring) run from the best `restarts`. The result's camera views the
+    unit-sphere shape (`meshio.normalise_unit_sphere`) of its values."""
+    started = time.perf_counter()
+    target = stroke_mask(drawing)
+    distance = DrawingDistance(target)
+    shapes = Shapes(program)
+    spaces = []
+    for s in starts:
+        space = SearchSpace(recipe, Start(program.check(s.values), s.options))
+        spaces += [(space, CameraSpace(v)) for v in camera_starts(shapes, space.start.values, target, guesses)]
+    curve: list[float] = []
+
+    def objective(i: int, x: np.ndarray) -> float:
+        space, cams = spaces[i]
+        n = len(x) - 6
+        values = space.values(np.asarray(x[:n]))
+        outline = shapes(values) if recipe.satisfies(values) else None
+        value = math.inf if outline is None else distance(strokes(outline, cams.view(x[n:])))
+        if PRIOR and outline is not None:
+            value += PRIOR * float(np.sum((np.clip(x[:n], 0, 1) - x0s[i][:n]) ** 2))
+        curve.append(min(value, curve[-1]) if curve else value)
+        return value
+
+    x0s = [np.concatenate([space.x0(), cams.x0()]) for space, cams in spaces]
+    scores = [objective(i, x) for i, x in enumerate(x0s[:max(1, budget)])]
+    order = np.argsort(scores, kind="stable")
+    before = float(scores[order[0]])
+    # from each of the best starts: sweeps one coordinate at a time, then CMA-ES on all
+    best, best_x, best_i = math.inf, x0s[order[0]], int(order[0])
+    runs = order[:max(1, min(restarts, len(order)))]
+    for r, i in enumerate(runs):
+        x, f = x0s[i], scores[i]
+        for step in STEPS if r == 0 else STEPS[:1]:
+            x, f = sweep_discrete(lambda x, i=int(i): objective(i, x), spaces[i][0], x, f,
+                                  budget - len(curve))
+            x, f = sweep_continuous(lambda x, i=int(i): objective(i, x), spaces[i][0], x, f,
+                                    budget - len(curve), step)
+        share = (budget - len(curve)) // (len(runs) - r)
+        stds = np.concatenate([np.full(len(x) - 6, SIGMA), CAMERA_SIGMA])
+        y, g = cma_search(lambda x, i=int(i): objective(i, x), x, stds, share, seed + r)
+        x, f = (y, g) if g < f else (x, f)
+        if f < best:
+            best, best_x, best_i = f, x, int(i)
+    space, cams = spaces[best_i]
+    n = len(best_x) - 6
+    values, camera = space.values(best_x[:n]), cams.view(best_x[n:])
+    outline = shapes(values)
+    after = best if outline is None else distance(strokes(outline, camera))   # less the prior
+    return DrawingFit(values=values, camera=camera, before=before, after=min(after, best),
+                      evaluations=len(curve), seconds=time.perf_counter() - started,
+                      start=best_i, curve=curve)
+
+
+def sweep_discrete(objective, space: SearchSpace, x: np.ndarray, f: float,
+                   budget: int) -> tuple[np.ndarray, float]:
+    """Greedy: each discrete parameter in turn tries its other candidate values (the network's
+    next choices), keeping any that lowers `objective`; at most `budget` evaluations. CMA-ES
+    moves a discrete coordinate only as one of dozens at once, so that a wrong class of the
+    network (a leg or slat count) is rarely corrected without this sweep."""
+    x, used = np.array(x, dtype=np.float64), 0
+    first = len(space.continuous)
+    for j, (_, values) in enumerate(space.discrete):
+        for k in range(1, len(values)):
+            if used >= budget:
+                return x, f
+            y = x.copy()
+            y[first + j] = (k + 0.5) / len(values)
+            g = objective(y)
+            used += 1
+            if g < f:
+                x, f = y, g
+    return x, f
+
+
+def sweep_continuous(objective, space: SearchSpace, x: np.ndarray, f: float, budget: int,
+                     step: float = 0.15) -> tuple[np.ndarray, float]:
+    """Greedy: each continuous parameter, then each camera coordinate (the last six), in turn
+    tries +-`step` in the unit box (the second side only when the first does not help),
+    keeping what lowers `objective`; at most `budget` evaluations. Most parameters change one
+    part of the drawing; one at a time, each change is judged on its own, where a population
+    of random moves of all of them at once mixes good and bad ones."""
+    x, used = np.array(x, dtype=np.float64), 0
+    for j in [*range(len(space.continuous)), *range(len(x) - 6, len(x))]:
+        for sign in (1.0, -1.0):
+            if used >= budget:
+                return x, f
+            y = x.copy()
+            y[j] = np.clip(y[j] + sign * step, 0.0, 1.0)
+            if y[j] == x[j]:
+                continue
+            g = objective(y)
+            used += 1
+            if g < f:
+                x, f = y, g
+                break
+    return x, f
+
+
+def cma_search(objective, x0: np.ndarray, stds: np.ndarray, budget: int,
+               seed: int) -> tuple[np.ndarray, float]:
+    """The best (x, f) CMA-ES finds within `budget` evaluations of `objective` (inf: an
+    invalid shape) from x0 in the unit box, with initial steps `stds` per coordinate (as
+    `geocode.fit._cma`, whose one step for all coordinates would turn the camera as far as
+    it changes a parameter: a few degrees of camera move the strokes as much as most
+    parameters across their range)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")   # cma warns that matplotlib (plots only) is missing
+        import cma
+
+    best_x, best, used = x0, math.inf, 0
+    if budget < 2:
+        return best_x, best
+    es = cma.CMAEvolutionStrategy(x0, 1.0, {"bounds": [0.0, 1.0], "seed": seed + 1,
+                                            "CMA_stds": list(stds), "verbose": -9,
+                                            "maxfevals": budget, "tolfun": 0.0, "tolx": 1e-6})
+    while used < budget and not es.stop():
+        xs = es.ask()
+        fs = []
+        for x in xs[: budget - used]:
+            fs.append(objective(x))
+            if fs[-1] < best:
+                best, best_x = fs[-1], np.asarray(x)
+        used += len(fs)
+        if len(fs) < len(xs):   # the budget ends inside this generation
+            break
+        es.tell(xs, [f if np.isfinite(f) else 1e9 for f in fs])
+    return best_x, best
+
+
+# -- benches ------------------------------------------------------------------------------------
+
+def bench_sketch_fit(cfg, domain: str, n: int = 10, camera: str = "trained",
+                     budget: int = BUDGET) -> dict:
+    """The domain's trained joint model's predictions on test sketches (`camera` "trained":
+    shape i from the i-th trained camera in turn; "novel": the untrained one), fitted to the
+    sketch, measured against the ground truth by `metrics.chamfer_meshes`: before and after,
+    and the median seconds per drawing (network, fit and both rebuilds included)."""
+    import statistics
+
+    from geocode.checkpoints import load_model
+    from geocode.config import data_dir
+    from geocode.evaluation import test_ids
+    from geocode.meshio import read_obj
+    from geocode.metrics import chamfer_meshes
+    from geocode.program import Program
+    from geocode.reconstruct import check_checkpoint, default_checkpoint, ranked_prediction
+    from geocode.training_data import load_sketch
+
+    program = Program.load(domain)
+    recipe = program.recipe()
+    checkpoint = default_checkpoint(cfg, domain)
+    model = load_model(checkpoint)
+    check_checkpoint(model, recipe, checkpoint, domain)
+    cams = [c.name for c in cfg.data.sketch.cameras if bool(c.train) == (camera == "trained")]
+    test = data_dir(cfg, domain, "test")
+    before, after, seconds, curves = [], [], [], []
+    for k, shape_id in enumerate(test_ids(cfg, domain)[:n]):
+        started = time.perf_counter()
+        drawing = load_sketch(test / "sketches" / f"{shape_id}_{cams[k % len(cams)]}.png")
+        start, options = ranked_prediction(model, recipe, "sketch", drawing, cfg.eval.decode)
+        result = fit_drawing(program, recipe, [Start(start, options)], drawing, budget, seed=cfg.seed)
+        gt = read_obj(test / "shapes" / f"{shape_id}.obj")
+        for values, out in ((program.check(start), before), (result.values, after)):
+            out.append(chamfer_meshes(program.evaluate(values), gt, n=cfg.eval.chamfer_points,
+                                      rng=np.random.default_rng(0)))
+        seconds.append(time.perf_counter() - started)
+        curves.append(result.curve)
+    return {"domain": domain, "camera": camera, "shapes": len(seconds), "budget": budget,
+            "chamfer_before": round(float(np.mean(before)), 6),
+            "chamfer_after": round(float(np.mean(after)), 6),
+            "seconds_per_shape": round(statistics.median(seconds), 2),
+            "curve": mean_curve(curves)}
+
+
+def mean_curve(curves: Sequence[Sequence[float]], points: Sequence[int] = (1, 10, 25, 50, 100, 200,
+                                                                            300, 400, 600, 800)) -> dict:
+    """{evaluations: the mean over fits of the best drawing distance after that many} (a fit
+    that stopped earlier counts with its final value)."""
+    out = {}
+    for p in points:
+        if curves and p <= max(len(c) for c in curves):
+            out[p] = round(float(np.mean([c[min(p, len(c)) - 1] for c in curves])), 4)
+    return out
+
+
+def renderer_agreement(domains: Sequence[str], n: int, seed: int = 0) -> dict:
+    """How near `linedraw`'s drawings lie to Freestyle's (blender/sketch.py) of the same shapes
+    and camera: per domain, over n random program shapes (`Program.random_values`, seeded),
+    each seen from one of the dataset's trained views in turn, the mean `drawing_distance`
+    between the two renders ("ours"), and between Freestyle's renders of two different shapes
+    of the domain from the same view ("other shapes", the scale that gives it meaning)."""
+    import tempfile
+    from pathlib import Path
+
+    from geocode.blender.sketch import Camera, renderer
+    from geocode.linedraw import drawing_distance
+    from geocode.program import Program
+    from geocode.training_data import load_sketch
+
+    freestyle = renderer()
+    out = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        png = Path(tmp) / "view.png"
+        for domain in domains:
+            program, rng = Program.load(domain), np.random.default_rng(seed)
+            ours, theirs, views = [], [], []
+            while len(ours) < n:
+                try:
+                    mesh = normalise_unit_sphere(program.evaluate(program.random_values(rng)))
+                except ValueError:
+                    continue
+                view = View(CAMERA_GUESSES[len(ours) % 2][0], CAMERA_GUESSES[len(ours) % 2][1])
+                freestyle.set_mesh(mesh.vertices, mesh.faces)
+                freestyle.render(Camera("view", view.azimuth, view.elevation), png)
+                theirs.append(load_sketch(png))
+                ours.append(strokes(Outline(mesh.vertices, mesh.faces), view))
+                views.append(view)
+            same = [drawing_distance(a, b) for a, b in zip(ours, theirs, strict=True)]
+            other = [drawing_distance(theirs[i], theirs[(i + 2) % n]) for i in range(n)]
+            out[domain] = {"shapes": n, "ours": round(float(np.mean(same)), 3),
+                           "ours_max": round(float(np.max(same)), 3),
+                           "other_shapes": round(float(np.mean(other)), 3)}
+    return out
+
+
+def freestyle_drawing(mesh, view: View) -> np.ndarray:
+    """Freestyle's drawing (blender/sketch.py, needs bpy) of a unit-sphere mesh from `view`:
+    rendered from its azimuth and elevation, then rolled, scaled and shifted in the image as
+    `View.project` does (p - m = s R(roll) (q - m) + shift about the image centre m; nearest
+    pixel), for scoring a fit's answer with the dataset's own renderer. (224, 224) float32,
+    white 1, strokes 0."""
+    import tempfile
+    from pathlib import Path
+
+    from scipy import ndimage
+
+    from geocode.blender.sketch import Camera, renderer
+    from geocode.training_data import load_sketch
+
+    freestyle = renderer(SIZE)
+    freestyle.set_mesh(mesh.vertices, mesh.faces)
+    with tempfile.TemporaryDirectory() as tmp:
+        png = Path(tmp) / "view.png"
+        freestyle.render(Camera("fit", view.azimuth, view.elevation), png)
+        image = load_sketch(png)[0]
+    c, s = math.cos(math.radians(view.roll)), math.sin(math.radians(view.roll))
+    inverse = np.array([[c, -s], [s, c]]) / view.scale      # (row, col) of the source per target
+    m = SIZE / 2
+    shift = np.array([view.offset[1], view.offset[0]])
+    offset = m - 0.5 - inverse @ (m - 0.5 + shift)
+    return ndimage.affine_transform(image, inverse, offset=offset, order=0, cval=1.0)
