@@ -132,7 +132,7 @@ def test_agrees_with_freestyle_on_program_shapes(tmp_path, blender):
     from geocode.blender.sketch import Camera, renderer
     from geocode.meshio import normalise_unit_sphere
     from geocode.program import Program
-    from geocode.training_data import load_sketch
+    from geocode.steps.train_data import load_sketch
 
     program = Program.load("chair")
     rng = np.random.default_rng(1)

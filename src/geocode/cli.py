@@ -214,6 +214,10 @@ def parser() -> argparse.ArgumentParser:
     c.add_argument("--variant", default="joint", help="epoch: the model variant (joint, separate, regression, huang)")
     c.add_argument("--points", type=at_most(10000, "points", "the neighbour search grows with their square "
                                           "(19 times the memory of 2300)"), default=2300, help="epoch: points per cloud")
+    c.add_argument("--modality", choices=["points", "sketch"], default="points",
+                   help="fit: fit to the test clouds (points) or to the test sketches")
+    c.add_argument("--camera", choices=["trained", "novel"], default="trained",
+                   help="fit --modality sketch: sketches of the trained cameras or of the novel one")
     c.add_argument("--stability", action="store_true",
                    help="program: also the share of shapes that pass the drop test")
     c.add_argument("--json", action="store_true")
@@ -439,7 +443,13 @@ def cmd_bench(args):
         from geocode.bench.fit import bench_fit
         from geocode.config import compose
 
-        return bench_fit(compose([f"domain={args.domain}", *args.overrides]), args.domain, n=args.n or 20)
+        cfg = compose([f"domain={args.domain}", *args.overrides])
+        if args.modality == "sketch":
+            from geocode.bench.sketch_fit import bench_sketch_fit
+
+            return bench_sketch_fit(cfg, args.domain, n=args.n or 10, camera=args.camera,
+                                    budget=args.budget or 800)
+        return bench_fit(cfg, args.domain, n=args.n or 20)
     from geocode.bench.evaluate import bench_eval
 
     return bench_eval(args.domain)

@@ -294,49 +294,6 @@ def cma_search(objective, x0: np.ndarray, stds: np.ndarray, budget: int,
 
 # -- benches ------------------------------------------------------------------------------------
 
-def bench_sketch_fit(cfg, domain: str, n: int = 10, camera: str = "trained",
-                     budget: int = BUDGET) -> dict:
-    """The domain's trained joint model's predictions on test sketches (`camera` "trained":
-    shape i from the i-th trained camera in turn; "novel": the untrained one), fitted to the
-    sketch, measured against the ground truth by `metrics.chamfer_meshes`: before and after,
-    and the median seconds per drawing (network, fit and both rebuilds included)."""
-    import statistics
-
-    from geocode.checkpoints import load_model
-    from geocode.config import data_dir
-    from geocode.evaluation import test_ids
-    from geocode.meshio import read_obj
-    from geocode.metrics import chamfer_meshes
-    from geocode.program import Program
-    from geocode.reconstruct import check_checkpoint, default_checkpoint, ranked_prediction
-    from geocode.training_data import load_sketch
-
-    program = Program.load(domain)
-    recipe = program.recipe()
-    checkpoint = default_checkpoint(cfg, domain)
-    model = load_model(checkpoint)
-    check_checkpoint(model, recipe, checkpoint, domain)
-    cams = [c.name for c in cfg.data.sketch.cameras if bool(c.train) == (camera == "trained")]
-    test = data_dir(cfg, domain, "test")
-    before, after, seconds, curves = [], [], [], []
-    for k, shape_id in enumerate(test_ids(cfg, domain)[:n]):
-        started = time.perf_counter()
-        drawing = load_sketch(test / "sketches" / f"{shape_id}_{cams[k % len(cams)]}.png")
-        start, options = ranked_prediction(model, recipe, "sketch", drawing, cfg.eval.decode)
-        result = fit_drawing(program, recipe, [Start(start, options)], drawing, budget, seed=cfg.seed)
-        gt = read_obj(test / "shapes" / f"{shape_id}.obj")
-        for values, out in ((program.check(start), before), (result.values, after)):
-            out.append(chamfer_meshes(program.evaluate(values), gt, n=cfg.eval.chamfer_points,
-                                      rng=np.random.default_rng(0)))
-        seconds.append(time.perf_counter() - started)
-        curves.append(result.curve)
-    return {"domain": domain, "camera": camera, "shapes": len(seconds), "budget": budget,
-            "chamfer_before": round(float(np.mean(before)), 6),
-            "chamfer_after": round(float(np.mean(after)), 6),
-            "seconds_per_shape": round(statistics.median(seconds), 2),
-            "curve": mean_curve(curves)}
-
-
 def mean_curve(curves: Sequence[Sequence[float]], points: Sequence[int] = (1, 10, 25, 50, 100, 200,
                                                                             300, 400, 600, 800)) -> dict:
     """{evaluations: the mean over fits of the best drawing distance after that many} (a fit
@@ -345,46 +302,6 @@ def mean_curve(curves: Sequence[Sequence[float]], points: Sequence[int] = (1, 10
     for p in points:
         if curves and p <= max(len(c) for c in curves):
             out[p] = round(float(np.mean([c[min(p, len(c)) - 1] for c in curves])), 4)
-    return out
-
-
-def renderer_agreement(domains: Sequence[str], n: int, seed: int = 0) -> dict:
-    """How near `linedraw`'s drawings lie to Freestyle's (blender/sketch.py) of the same shapes
-    and camera: per domain, over n random program shapes (`Program.random_values`, seeded),
-    each seen from one of the dataset's trained views in turn, the mean `drawing_distance`
-    between the two renders ("ours"), and between Freestyle's renders of two different shapes
-    of the domain from the same view ("other shapes", the scale that gives it meaning)."""
-    import tempfile
-    from pathlib import Path
-
-    from geocode.blender.sketch import Camera, renderer
-    from geocode.linedraw import drawing_distance
-    from geocode.program import Program
-    from geocode.training_data import load_sketch
-
-    freestyle = renderer()
-    out = {}
-    with tempfile.TemporaryDirectory() as tmp:
-        png = Path(tmp) / "view.png"
-        for domain in domains:
-            program, rng = Program.load(domain), np.random.default_rng(seed)
-            ours, theirs, views = [], [], []
-            while len(ours) < n:
-                try:
-                    mesh = normalise_unit_sphere(program.evaluate(program.random_values(rng)))
-                except ValueError:
-                    continue
-                view = View(CAMERA_GUESSES[len(ours) % 2][0], CAMERA_GUESSES[len(ours) % 2][1])
-                freestyle.set_mesh(mesh.vertices, mesh.faces)
-                freestyle.render(Camera("view", view.azimuth, view.elevation), png)
-                theirs.append(load_sketch(png))
-                ours.append(strokes(Outline(mesh.vertices, mesh.faces), view))
-                views.append(view)
-            same = [drawing_distance(a, b) for a, b in zip(ours, theirs, strict=True)]
-            other = [drawing_distance(theirs[i], theirs[(i + 2) % n]) for i in range(n)]
-            out[domain] = {"shapes": n, "ours": round(float(np.mean(same)), 3),
-                           "ours_max": round(float(np.max(same)), 3),
-                           "other_shapes": round(float(np.mean(other)), 3)}
     return out
 
 
@@ -397,17 +314,18 @@ def freestyle_drawing(mesh, view: View) -> np.ndarray:
     import tempfile
     from pathlib import Path
 
+    from PIL import Image
     from scipy import ndimage
 
     from geocode.blender.sketch import Camera, renderer
-    from geocode.training_data import load_sketch
 
     freestyle = renderer(SIZE)
     freestyle.set_mesh(mesh.vertices, mesh.faces)
     with tempfile.TemporaryDirectory() as tmp:
         png = Path(tmp) / "view.png"
         freestyle.render(Camera("fit", view.azimuth, view.elevation), png)
-        image = load_sketch(png)[0]
+        with Image.open(png) as im:
+            image = np.asarray(im.convert("L"), dtype=np.float32) / 255.0
     c, s = math.cos(math.radians(view.roll)), math.sin(math.radians(view.roll))
     inverse = np.array([[c, -s], [s, c]]) / view.scale      # (row, col) of the source per target
     m = SIZE / 2
