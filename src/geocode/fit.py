@@ -224,7 +224,7 @@ def fit(program, recipe, starts: Sequence[Start], target: np.ndarray, budget: in
     runs = order[:max(1, min(restarts, len(order)))]
     for r, i in enumerate(runs):
         share = (budget - len(curve)) // (len(runs) - r)
-        x, f = _cma(lambda x, i=int(i): objective(i, x), spaces[i].x0(), share, seed + r)
+        x, f = cma_search(lambda x, i=int(i): objective(i, x), spaces[i].x0(), share, seed + r)
         if f < best:
             best, best_x, best_i = f, x, int(i)
     runs_found = [(spaces[i].values(found[i][1]), found[i][2]) for i in runs if i in found]
@@ -233,9 +233,10 @@ def fit(program, recipe, starts: Sequence[Start], target: np.ndarray, budget: in
                      seconds=time.perf_counter() - started, curve=curve, found=runs_found)
 
 
-def _cma(objective, x0: np.ndarray, budget: int, seed: int) -> tuple[np.ndarray, float]:
+def cma_search(objective, x0: np.ndarray, budget: int, seed: int,
+               stds: np.ndarray | None = None) -> tuple[np.ndarray, float]:
     """The best (x, f) CMA-ES finds within `budget` evaluations of `objective` (inf for an
-    invalid shape) from x0 in the unit box."""
+    invalid shape) from x0 in the unit box; initial step SIGMA, or `stds` per coordinate."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")   # cma warns that matplotlib (plots only) is missing
         import cma
@@ -243,9 +244,11 @@ def _cma(objective, x0: np.ndarray, budget: int, seed: int) -> tuple[np.ndarray,
     best_x, best, used = x0, np.inf, 0
     if budget < 2:
         return best_x, best
-    es = cma.CMAEvolutionStrategy(x0, SIGMA, {"bounds": [0.0, 1.0], "seed": seed + 1,
-                                              "verbose": -9, "maxfevals": budget,
-                                              "tolfun": 0.0, "tolx": 1e-6})
+    options = {"bounds": [0.0, 1.0], "seed": seed + 1, "verbose": -9, "maxfevals": budget,
+               "tolfun": 0.0, "tolx": 1e-6}
+    if stds is not None:
+        options["CMA_stds"] = list(stds)
+    es = cma.CMAEvolutionStrategy(x0, SIGMA if stds is None else 1.0, options)
     while used < budget and not es.stop():
         xs = es.ask()
         fs = []

@@ -31,13 +31,12 @@ from __future__ import annotations
 
 import math
 import time
-import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from geocode.fit import SearchSpace, Start
+from geocode.fit import SearchSpace, Start, cma_search
 from geocode.linedraw import SIZE, DrawingDistance, Outline, View, stroke_mask, strokes
 from geocode.meshio import normalise_unit_sphere
 
@@ -202,7 +201,7 @@ def fit_drawing(program, recipe, starts: Sequence[Start], drawing: np.ndarray,
                                     budget - len(curve), step)
         share = (budget - len(curve)) // (len(runs) - r)
         stds = np.concatenate([np.full(len(x) - 6, SIGMA), CAMERA_SIGMA])
-        y, g = cma_search(lambda x, i=int(i): objective(i, x), x, stds, share, seed + r)
+        y, g = cma_search(lambda x, i=int(i): objective(i, x), x, share, seed + r, stds)
         x, f = (y, g) if g < f else (x, f)
         if f < best:
             best, best_x, best_i = f, x, int(i)
@@ -259,37 +258,6 @@ def sweep_continuous(objective, space: SearchSpace, x: np.ndarray, f: float, bud
                 x, f = y, g
                 break
     return x, f
-
-
-def cma_search(objective, x0: np.ndarray, stds: np.ndarray, budget: int,
-               seed: int) -> tuple[np.ndarray, float]:
-    """The best (x, f) CMA-ES finds within `budget` evaluations of `objective` (inf: an
-    invalid shape) from x0 in the unit box, with initial steps `stds` per coordinate (as
-    `geocode.fit._cma`, whose one step for all coordinates would turn the camera as far as
-    it changes a parameter: a few degrees of camera move the strokes as much as most
-    parameters across their range)."""
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")   # cma warns that matplotlib (plots only) is missing
-        import cma
-
-    best_x, best, used = x0, math.inf, 0
-    if budget < 2:
-        return best_x, best
-    es = cma.CMAEvolutionStrategy(x0, 1.0, {"bounds": [0.0, 1.0], "seed": seed + 1,
-                                            "CMA_stds": list(stds), "verbose": -9,
-                                            "maxfevals": budget, "tolfun": 0.0, "tolx": 1e-6})
-    while used < budget and not es.stop():
-        xs = es.ask()
-        fs = []
-        for x in xs[: budget - used]:
-            fs.append(objective(x))
-            if fs[-1] < best:
-                best, best_x = fs[-1], np.asarray(x)
-        used += len(fs)
-        if len(fs) < len(xs):   # the budget ends inside this generation
-            break
-        es.tell(xs, [f if np.isfinite(f) else 1e9 for f in fs])
-    return best_x, best
 
 
 # -- benches ------------------------------------------------------------------------------------
