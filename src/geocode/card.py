@@ -38,10 +38,11 @@ def write_card(run: Path) -> Path:
              "## Training data", ""]
     lines += _data_lines(config)
     lines += ["", "## Numbers", ""]
-    if summary:
-        lines.append(f"- Validation top-1 accuracy: points {summary['best_val_acc_points']:.3f}, "
-                     f"sketches {summary['best_val_acc_sketch']:.3f} (always the most frequent "
-                     f"class: {summary['majority_val_acc']:.3f}).")
+    accuracies = [f"{name} {summary[key]:.3f}" for name, key in
+                  (("points", "best_val_acc_points"), ("sketches", "best_val_acc_sketch")) if key in summary]
+    if accuracies:   # a variant may read one modality only (huang: sketches)
+        lines.append(f"- Validation top-1 accuracy: {', '.join(accuracies)} (always the most "
+                     f"frequent class: {summary.get('majority_val_acc', float('nan')):.3f}).")
     lines += _test_lines(paths.metrics_file(run))
     lines += _real_lines(paths.real_bench_file(run))
     lines += ["", "## Where it fails", "", *(f"- {limit}" for limit in LIMITS), ""]
