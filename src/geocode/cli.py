@@ -232,39 +232,31 @@ def parser() -> argparse.ArgumentParser:
     c.set_defaults(run=cmd_timings)
 
     step = "pipeline step; takes Hydra overrides key=value"
-    c = sub.add_parser("sample", help=f"sample the recipes of every split ({step})")
-    c.set_defaults(run=cmd_sample)
-    for name, fn in (("export", cmd_export), ("sketch", cmd_sketch), ("points", cmd_points)):
-        c = sub.add_parser(name, help=f"one shard of the {name} stage ({step})")
-        c.add_argument("--split", required=True)
-        c.add_argument("--shard", required=True, type=int, help="0 .. data.shards - 1")
-        c.set_defaults(run=fn)
-    c = sub.add_parser("train", help=f"train a model ({step})")
-    c.add_argument("--out", type=output_folder, help="run folder (default: <paths.runs>/<domain>/<variant>)")
-    c.set_defaults(run=cmd_train)
-    c = sub.add_parser("simplify", help=f"decimate the test meshes into split test-s<factor> ({step})")
-    c.add_argument("--factor", required=True, type=at_least(1), help="one of eval.simplify")
-    c.set_defaults(run=cmd_simplify)
-    c = sub.add_parser("predict", help=f"predict every test condition with a checkpoint ({step})")
-    c.add_argument("--checkpoint", required=True, type=Path)
-    c.add_argument("-o", "--output", required=True, type=output_file)
-    c.set_defaults(run=cmd_predict)
-    c = sub.add_parser("rebuild", help=f"rebuild one shard of predictions with the program ({step})")
-    c.add_argument("--predictions", required=True, type=Path)
-    c.add_argument("--shard", required=True, type=int, help="0 .. data.shards - 1")
-    c.set_defaults(run=cmd_rebuild)
-    c = sub.add_parser("metrics", help=f"Chamfer distances and drop tests of a variant's rebuilt predictions (model=<variant>; {step})")
-    c.add_argument("--predictions", required=True, type=Path)
-    c.add_argument("-o", "--output", required=True, type=output_file)
-    c.set_defaults(run=cmd_metrics)
-    c = sub.add_parser("tables", help=f"metrics files -> the paper's tables ({step})")
-    c.add_argument("--metrics", required=True, nargs="+", type=Path)
-    c.add_argument("-o", "--output", required=True, type=output_folder)
-    c.set_defaults(run=cmd_tables)
-    c = sub.add_parser("report", help=f"an HTML page of inputs, ground truth and predictions ({step})")
-    c.add_argument("--metrics", required=True, nargs="+", type=Path)
-    c.add_argument("-o", "--output", required=True, type=output_folder)
-    c.set_defaults(run=cmd_report)
+    shard = (("--shard",), dict(required=True, type=int, help="0 .. data.shards - 1"))
+    predictions = (("--predictions",), dict(required=True, type=Path))
+    metrics = (("--metrics",), dict(required=True, nargs="+", type=Path))
+    to_file = (("-o", "--output"), dict(required=True, type=output_file))
+    to_folder = (("-o", "--output"), dict(required=True, type=output_folder))
+    for name, help, run, arguments in (
+        ("sample", "sample the recipes of every split", cmd_sample, ()),
+        *((name, f"one shard of the {name} stage", fn, ((("--split",), dict(required=True)), shard))
+          for name, fn in (("export", cmd_export), ("sketch", cmd_sketch), ("points", cmd_points))),
+        ("train", "train a model", cmd_train,
+         ((("--out",), dict(type=output_folder, help="run folder (default: <paths.runs>/<domain>/<variant>)")),)),
+        ("simplify", "decimate the test meshes into split test-s<factor>", cmd_simplify,
+         ((("--factor",), dict(required=True, type=at_least(1), help="one of eval.simplify")),)),
+        ("predict", "predict every test condition with a checkpoint", cmd_predict,
+         ((("--checkpoint",), dict(required=True, type=Path)), to_file)),
+        ("rebuild", "rebuild one shard of predictions with the program", cmd_rebuild, (predictions, shard)),
+        ("metrics", "Chamfer distances and drop tests of a variant's rebuilt predictions (model=<variant>)",
+         cmd_metrics, (predictions, to_file)),
+        ("tables", "metrics files -> the paper's tables", cmd_tables, (metrics, to_folder)),
+        ("report", "an HTML page of inputs, ground truth and predictions", cmd_report, (metrics, to_folder)),
+    ):
+        c = sub.add_parser(name, help=f"{help} ({step})")
+        for flags, options in arguments:
+            c.add_argument(*flags, **options)
+        c.set_defaults(run=run)
     c = sub.add_parser("config", help="print the composed config for these overrides",
                        epilog="`geocode config --keys` lists the groups and every key with its meaning.")
     c.add_argument("--keys", action="store_true", help="list the groups, and every key with its value and meaning")

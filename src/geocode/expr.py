@@ -243,8 +243,11 @@ class Not(Expr):
         return f"not {self._child_str(self.x, PREC_NOT)}"
 
 
+@dataclass(frozen=True)
 class _BoolOp(Expr):
     """Shared body of And / Or: a tuple of at least two items."""
+
+    items: tuple
 
     word = ""
 
@@ -266,17 +269,13 @@ class _BoolOp(Expr):
         return f" {self.word} ".join(self._child_str(i, self.precedence + 1) for i in self.items)
 
 
-@dataclass(frozen=True)
 class And(_BoolOp):
-    items: tuple
     precedence = PREC_AND
     word = "and"
     combine = np.logical_and
 
 
-@dataclass(frozen=True)
 class Or(_BoolOp):
-    items: tuple
     precedence = PREC_OR
     word = "or"
     combine = np.logical_or

@@ -161,26 +161,27 @@ def _fixed_inputs(g: Graph, first: str, second: str, defaults):
     return a, b, curvature, resolution
 
 
+def _vertical_at_start(g: Graph, first: str, second: str, defaults) -> None:
+    """The body of CurveFixedTop / CurveFixedBottom: a quadratic path from the input `first`
+    to `second` that leaves `first` vertically at `Curvature` 1."""
+    start, end, curvature, resolution = _fixed_inputs(g, first, second, defaults)
+    curve = quadratic_cartesian(g, start=start, end=end, resolution=resolution,
+                                offset=_vertical_end_offset(g, start, end, curvature))
+    g.output("Curve", "geometry", curve["Curve"])
+
+
 @node_group("CurveFixedTop")
 def fixed_top(g: Graph) -> None:
     """Path from `Top` down to `Bottom`; with `Curvature` 1 it leaves `Top` vertically and
     bends out towards `Bottom` (a splayed leg), with 0 it is the straight chord."""
-    top, bottom, curvature, resolution = _fixed_inputs(g, "Top", "Bottom",
-                                                       ((0, 0, 1), (0.2, 0, 0)))
-    curve = quadratic_cartesian(g, start=top, end=bottom, resolution=resolution,
-                                offset=_vertical_end_offset(g, top, bottom, curvature))
-    g.output("Curve", "geometry", curve["Curve"])
+    _vertical_at_start(g, "Top", "Bottom", ((0, 0, 1), (0.2, 0, 0)))
 
 
 @node_group("CurveFixedBottom")
 def fixed_bottom(g: Graph) -> None:
     """Path from `Bottom` up to `Top`; with `Curvature` 1 it rises vertically from `Bottom`
     and bends over towards `Top`, with 0 it is the straight chord."""
-    bottom, top, curvature, resolution = _fixed_inputs(g, "Bottom", "Top",
-                                                       ((0, 0, 0), (0, 0.2, 1)))
-    curve = quadratic_cartesian(g, start=bottom, end=top, resolution=resolution,
-                                offset=_vertical_end_offset(g, bottom, top, curvature))
-    g.output("Curve", "geometry", curve["Curve"])
+    _vertical_at_start(g, "Bottom", "Top", ((0, 0, 0), (0, 0.2, 1)))
 
 
 @node_group("CurveFixedMiddle")

@@ -42,22 +42,39 @@ def _profile(g: Graph, width, depth, roundness, resolution=THIN_RESOLUTION):
                             resolution=resolution)["Curve"]
 
 
-def _frame_inputs(g: Graph):
-    """Profile and style inputs common to the frame meshes."""
+def _frame_along(g: Graph, path) -> None:
+    """The body of a frame group, after its path's inputs: the profile and style inputs
+    (after the path's, so the sockets keep their order), then the outputs `Mesh`, the
+    profile swept along the curve that `path()` builds, and that `Curve`."""
     width = g.input("Width", "float", default=0.04, min=0.0)
     depth = g.input("Depth", "float", default=0.04, min=0.0)
     roundness = g.input("Roundness", "float", default=0.0, min=0.0, max=1.0)
     bevel = g.input("Bevel", "float", default=0.0, min=0.0, max=0.9)
     axis = g.input("Axis", "vector", default=(1, 0, 0))
     label = g.input("Label", "int", default=0, min=0)
-    return width, depth, roundness, bevel, axis, label
-
-
-def _frame_mesh(g: Graph, curve, inputs):
-    width, depth, roundness, bevel, axis, label = inputs
-    return aligned_bevel_xy(g, curve=curve, profile_curve=_profile(g, width, depth, roundness),
+    curve = path()
+    mesh = aligned_bevel_xy(g, curve=curve, profile_curve=_profile(g, width, depth, roundness),
                             axis=axis, radius=1.0, bevel=bevel, fill_caps=True,
                             label=label)["Mesh"]
+    g.output("Mesh", "geometry", mesh)
+    g.output("Curve", "geometry", curve)
+
+
+def _outline_inputs(g: Graph):
+    """`Width`, `Depth` and `Roundness` of a seat's outline (MeshSeat, MeshCushion)."""
+    return (g.input("Width", "float", default=0.5, min=0.0),
+            g.input("Depth", "float", default=0.5, min=0.0),
+            g.input("Roundness", "float", default=0.0, min=0.0, max=1.0))
+
+
+def _sweep_outline(g: Graph, style, outline, bottom, top, points: int, **style_inputs) -> None:
+    """The last input, `Label`, and the output `Mesh`: the outline swept from z = `bottom`
+    up to `top` along `points` points with the `style` group."""
+    label = g.input("Label", "int", default=0, min=0)
+    mesh = style(g, curve=_vertical_path(g, bottom, top, points),
+                 profile_curve=_profile(g, *outline, SEAT_RESOLUTION), fill_caps=True,
+                 label=label, **style_inputs)["Mesh"]
+    g.output("Mesh", "geometry", mesh)
 
 
 @node_group("MeshSeat")
@@ -68,18 +85,11 @@ def seat(g: Graph) -> None:
     `Corner` is the attachment point of the +X+Y corner on the outline (z = 0): the
     middle of the rounded corner, which moves inwards as the seat gets rounder, so legs
     and frames placed from it follow the outline."""
-    width = g.input("Width", "float", default=0.5, min=0.0)
-    depth = g.input("Depth", "float", default=0.5, min=0.0)
-    roundness = g.input("Roundness", "float", default=0.0, min=0.0, max=1.0)
+    outline = width, depth, roundness = _outline_inputs(g)
     top = g.input("Top", "float", default=0.45)
     thickness = g.input("Thickness", "float", default=0.05, min=0.0)
     bevel = g.input("Bevel", "float", default=0.05, min=0.0, max=0.5)
-    label = g.input("Label", "int", default=0, min=0)
-    path = _vertical_path(g, top - thickness, top, 7)
-    profile = _profile(g, width, depth, roundness, SEAT_RESOLUTION)
-    mesh = seat_frame(g, curve=path, profile_curve=profile, bevel=bevel, fill_caps=True,
-                      label=label)["Mesh"]
-    g.output("Mesh", "geometry", mesh)
+    _sweep_outline(g, seat_frame, outline, top - thickness, top, 7, bevel=bevel)
     inset = corner_radius(g, roundness, width, depth) * _CORNER_INSET
     g.output("Corner", "vector", g.vec(width * 0.5 - inset, depth * 0.5 - inset, 0.0))
 
@@ -88,18 +98,11 @@ def seat(g: Graph) -> None:
 def cushion_mesh(g: Graph) -> None:
     """A pillow on a seat: the seat's outline (`Width`, `Depth`, `Roundness`) swept up from
     `Bottom` by `Thickness` with StyleCushion (`Fill`: dome to full pillow)."""
-    width = g.input("Width", "float", default=0.5, min=0.0)
-    depth = g.input("Depth", "float", default=0.5, min=0.0)
-    roundness = g.input("Roundness", "float", default=0.0, min=0.0, max=1.0)
+    outline = _outline_inputs(g)
     bottom = g.input("Bottom", "float", default=0.45)
     thickness = g.input("Thickness", "float", default=0.05, min=0.0)
     fill = g.input("Fill", "float", default=0.5, min=0.0, max=1.0)
-    label = g.input("Label", "int", default=0, min=0)
-    path = _vertical_path(g, bottom, bottom + thickness, 8)
-    profile = _profile(g, width, depth, roundness, SEAT_RESOLUTION)
-    mesh = cushion_style(g, curve=path, profile_curve=profile, fill=fill, fill_caps=True,
-                         label=label)["Mesh"]
-    g.output("Mesh", "geometry", mesh)
+    _sweep_outline(g, cushion_style, outline, bottom, bottom + thickness, 8, fill=fill)
 
 
 @node_group("MeshLeg")
@@ -130,10 +133,7 @@ def straight_frame(g: Graph) -> None:
     StyleAlignedBevelXY (the end at `End` bevelled by `Bevel`)."""
     start = g.input("Start", "vector", default=(0, 0, 0))
     end = g.input("End", "vector", default=(0, 0, 1))
-    inputs = _frame_inputs(g)
-    curve = g.line(start, end, count=4)
-    g.output("Mesh", "geometry", _frame_mesh(g, curve, inputs))
-    g.output("Curve", "geometry", curve)
+    _frame_along(g, lambda: g.line(start, end, count=4))
 
 
 @node_group("MeshQuadraticCartesianAlignedXYFrame")
@@ -143,11 +143,8 @@ def quadratic_cartesian_aligned_xy_frame(g: Graph) -> None:
     start = g.input("Start", "vector", default=(0, 0, 0))
     end = g.input("End", "vector", default=(0, 0, 1))
     offset = g.input("Offset", "vector", default=(0, 0.1, 0))
-    inputs = _frame_inputs(g)
-    curve = quadratic_cartesian(g, start=start, end=end, offset=offset,
-                                resolution=12)["Curve"]
-    g.output("Mesh", "geometry", _frame_mesh(g, curve, inputs))
-    g.output("Curve", "geometry", curve)
+    _frame_along(g, lambda: quadratic_cartesian(g, start=start, end=end, offset=offset,
+                                                resolution=12)["Curve"])
 
 
 @node_group("MeshQuadraticPolarFrame")
@@ -158,11 +155,8 @@ def quadratic_polar_frame(g: Graph) -> None:
     end = g.input("End", "vector", default=(0, 0, 1))
     angle = g.input("Angle", "float", default=0.0, min=-math.pi, max=math.pi)
     distance = g.input("Distance", "float", default=0.1, min=0.0)
-    inputs = _frame_inputs(g)
-    curve = quadratic_polar(g, start=start, end=end, angle=angle, distance=distance,
-                            resolution=12)["Curve"]
-    g.output("Mesh", "geometry", _frame_mesh(g, curve, inputs))
-    g.output("Curve", "geometry", curve)
+    _frame_along(g, lambda: quadratic_polar(g, start=start, end=end, angle=angle,
+                                            distance=distance, resolution=12)["Curve"])
 
 
 @node_group("MeshFrameFixedBottom")
@@ -172,11 +166,8 @@ def frame_fixed_bottom(g: Graph) -> None:
     bottom = g.input("Bottom", "vector", default=(0, 0, 0))
     top = g.input("Top", "vector", default=(0, 0.1, 1))
     curvature = g.input("Curvature", "float", default=1.0, min=0.0, max=1.0)
-    inputs = _frame_inputs(g)
-    curve = fixed_bottom(g, bottom=bottom, top=top, curvature=curvature,
-                         resolution=8)["Curve"]
-    g.output("Mesh", "geometry", _frame_mesh(g, curve, inputs))
-    g.output("Curve", "geometry", curve)
+    _frame_along(g, lambda: fixed_bottom(g, bottom=bottom, top=top, curvature=curvature,
+                                         resolution=8)["Curve"])
 
 
 @node_group("MeshQuadraticCartesian")
