@@ -17,6 +17,7 @@ pytest.importorskip("bpy")
 from geocode.cli import main  # noqa: E402
 from geocode.fit import CloudDistance, Start, fit, shape_points  # noqa: E402
 from geocode.meshio import normalise_unit_sphere  # noqa: E402
+from geocode.page import SIZE  # noqa: E402
 from geocode.points import sample_surface  # noqa: E402
 from geocode.program import Program  # noqa: E402
 from geocode.tools.reconstruct import SKETCH_EXTENT, sketch_from_image  # noqa: E402
@@ -77,6 +78,22 @@ def test_every_input_kind_gives_values_mesh_preview_and_blend(files, tmp_path, c
         assert summary["kind"] == ("cloud" if name.startswith("cloud") else "mesh")
         assert summary["evaluations"] == 6
         assert summary["chamfer_after"] <= summary["chamfer_before"]
+
+
+def test_a_drawing_is_fitted_with_its_camera(files, tmp_path, capsys):
+    """--refine on a drawing searches shape and camera within the budget, and the page and
+    the preview show our line drawing of the result between the drawing and the shape."""
+    out = tmp_path / "out"
+    assert main(["reconstruct", "vase", str(files["root"] / "drawing.jpg"), "-o", str(out),
+                 "--checkpoint", str(files["ckpt"]), "--json", "--refine", "6"]) == 0
+    summary = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert summary["evaluations"] == 6
+    assert set(summary["camera"]) == {"azimuth", "elevation", "roll", "scale", "offset"}
+    assert 0 < summary["drawing_after"] < 40 and 0 < summary["drawing_before"] < 40
+    html = (out / "index.html").read_text()
+    assert "our line drawing of the result" in html and " px" in html
+    with Image.open(out / "drawing.png") as preview:
+        assert preview.width == 3 * SIZE          # drawing, our line drawing, shaded shape
 
 
 def test_the_in_place_mesh_lies_over_the_input(files, tmp_path):

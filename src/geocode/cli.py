@@ -163,7 +163,7 @@ def parser() -> argparse.ArgumentParser:
     c.add_argument("--checkpoint", type=Path, help="default: the domain's joint model of the run (paths.runs)")
     c.add_argument("--refine", type=at_most(5000, "program evaluations", "the fit's curve flattens well "
                                           "before (docs/wild.md)", low=0),
-                   help="program evaluations of the fit (default eval.reconstruct_budget; drawings: 0)")
+                   help="program evaluations of the fit (default eval.reconstruct_budget; drawings: 800)")
     c.add_argument("--up", default="auto", help="the input's up axis: auto (found), or x, y, z, -x, -y, -z")
     c.add_argument("--candidates", type=at_most(8, "answers", "more are rarely distinct", low=1), default=1,
                    help="write the K best distinct fitted programs (ranked on the page)")

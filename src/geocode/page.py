@@ -81,6 +81,7 @@ class Entry:
     candidates: list[Candidate] = field(default_factory=list)
     error: str | None = None
     result_drawing: object = None
+    unit: str = ""                  # of `before` / `after` (drawings: " px")
     pictures: dict[str, str] = field(default_factory=dict)   # role -> path, set by render_entry
 
     def __post_init__(self):
@@ -315,7 +316,7 @@ def input_caption(entry: Entry) -> str:
 
 
 def facts_html(entry: Entry) -> str:
-    out = [f"<p class='dist'>distance {_before_after(entry.before, entry.after)}"
+    out = [f"<p class='dist'>distance {_before_after(entry.before, entry.after, entry.unit)}"
            + (f" &middot; {entry.seconds:.1f} s" if entry.seconds is not None else "") + "</p>"]
     if entry.pose:
         out.append("<p>pose: " + " &middot; ".join(f"{_esc(k)} {_esc(_pose_value(k, v))}"
@@ -382,17 +383,17 @@ def _seconds(value: float | None) -> str:
     return "&ndash;" if value is None else f"{value:.1f}"
 
 
-def _before_after(before: float | None, after: float | None) -> str:
+def _before_after(before: float | None, after: float | None, unit: str = "") -> str:
     """'network 0.0151 → after fit 0.0098 (−35%)', or the one that is known."""
     if after is None:
-        return f"network {_distance(before)}"
+        return f"network {_distance(before)}{unit}"
     if before is None:
-        return f"after fit {_distance(after)}"
+        return f"after fit {_distance(after)}{unit}"
     change = ""
     if before > 0 and math.isfinite(before) and math.isfinite(after):
         pct = 100 * (after - before) / before
         change = f" <span class='{'better' if pct <= 0 else 'worse'}'>({pct:+.0f}%)</span>"
-    return f"network {_distance(before)} &rarr; after fit <b>{_distance(after)}</b>{change}"
+    return f"network {_distance(before)}{unit} &rarr; after fit <b>{_distance(after)}</b>{unit}{change}"
 
 
 def _plain(value) -> str:

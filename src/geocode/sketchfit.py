@@ -70,6 +70,7 @@ class DrawingFit:
     evaluations: int
     seconds: float
     start: int = 0             # index of the start (camera guess x framing) it came from
+    start_camera: View = field(default_factory=View)   # the best start's view (of `before`)
     curve: list[float] = field(default_factory=list)   # best distance after each evaluation
 
 
@@ -212,7 +213,7 @@ def fit_drawing(program, recipe, starts: Sequence[Start], drawing: np.ndarray,
     after = best if outline is None else distance(strokes(outline, camera))   # less the prior
     return DrawingFit(values=values, camera=camera, before=before, after=min(after, best),
                       evaluations=len(curve), seconds=time.perf_counter() - started,
-                      start=best_i, curve=curve)
+                      start=best_i, start_camera=spaces[int(order[0])][1].start, curve=curve)
 
 
 def sweep_discrete(objective, space: SearchSpace, x: np.ndarray, f: float,

@@ -18,7 +18,7 @@ from __future__ import annotations
 import logging
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -127,8 +127,11 @@ class Reconstruction:
     answers: list[Answer]              # best first; [0] is the result
     frame: Frame | None = None         # 3D inputs
     network: float | None = None       # plain Chamfer distance of the network's best answer
+                                       # (drawings: the drawing distance in px, as `after`)
     geometry: Geometry | None = None
     drawing: np.ndarray | None = None  # (1, 224, 224), drawings
+    result_drawing: np.ndarray | None = None   # ... Freestyle's drawing of the fitted answer
+    camera: object = None              # ... the view it was drawn from (a linedraw.View)
     fit: FitResult | None = None
     summary: dict = field(default_factory=dict)
 
@@ -172,15 +175,33 @@ class Reconstructor:
         return result
 
     def drawing(self, path: Path) -> Reconstruction:
+        """The network's answer to a drawing, then (unless --refine 0) `sketchfit`'s search of
+        the parameters and the camera; both scored by Freestyle's drawing of them."""
         from geocode.checkpoints import ranked_prediction
+        from geocode.linedraw import drawing_distance
+        from geocode.sketchfit import BUDGET, fit_drawing, freestyle_drawing
 
-        if self.refine_given:
-            raise UserError(f"--refine {self.refine_given}", "fitting needs a 3D input (mesh or cloud)",
-                            "give --refine 0 for a drawing")
         sketch = sketch_from_image(path)
-        values, _ = ranked_prediction(self.model, self.recipe, "sketch", sketch, self.cfg.eval.decode)
-        return Reconstruction(path, "drawing", [Answer(self.program.check(values), Pose(), math.nan)],
-                              drawing=sketch)
+        values, options = ranked_prediction(self.model, self.recipe, "sketch", sketch, self.cfg.eval.decode)
+        network = Answer(self.program.check(values), Pose(), math.nan)
+        result = Reconstruction(path, "drawing", [network], drawing=sketch)
+        budget = BUDGET if self.refine_given is None else self.refine_given
+        if budget == 0:
+            return result
+        found = fit_drawing(self.program, self.recipe, [Start(values, options)], sketch, budget,
+                            seed=self.cfg.seed)
+
+        def scored(values: dict, camera) -> tuple[float, np.ndarray]:
+            drawn = freestyle_drawing(normalise_unit_sphere(self.program.evaluate(values)), camera)
+            return drawing_distance(drawn, sketch), drawn
+
+        result.network, _ = scored(network.values, found.start_camera)
+        after, result.result_drawing = scored(found.values, found.camera)
+        result.answers = [Answer(self.program.check(found.values), Pose(), after)]
+        result.camera = found.camera
+        result.summary.update(camera=asdict(found.camera), drawing_before=round(result.network, 3),
+                              drawing_after=round(after, 3), evaluations=found.evaluations)
+        return result
 
     def shape(self, path: Path) -> Reconstruction:
         geometry = read_geometry(path)
@@ -330,7 +351,8 @@ def reconstruct(cfg, domain: str, input_path: Path, out_dir: Path, checkpoint: P
     if len(files) > 1:
         progress.finish()
     page.write_page(entries, out_dir, f"geocode reconstruct {domain}",
-                    note="Chamfer distance to the input: unit sphere, squared, mean of both directions / 2")
+                    note="Chamfer distance to the input: unit sphere, squared, mean of both directions / 2;"
+                         " drawings: mean distance between the strokes (px of 224), both ways / 2")
     if len(files) == 1:
         return summaries[0]
     done = [s for s in summaries if "error" not in s]
@@ -359,14 +381,16 @@ def write_outputs(run: Reconstructor, result: Reconstruction, stem: Path, out_di
         entry = page.Entry(
             name=name, kind=result.kind, result=posed, seconds=result.summary.get("seconds"),
             input=result.drawing[0] if result.kind == "drawing" else input_shape(result),
-            before=result.network, after=best.chamfer if result.fit else None,
+            before=result.network, after=best.chamfer if result.fit or result.camera else None,
+            unit=" px" if result.kind == "drawing" else "", result_drawing=result.result_drawing,
             pose=pose_facts(result), parameters=best.values, links=links,
             candidates=[page.Candidate(run.mesh(a), a.chamfer, {}) for a in result.answers[1:]])
         placed: dict[Path, Path] = {}
         page.render_entry(entry, out_dir, place=lambda p: placed.setdefault(p, out.reserve(p)))
-        pictures = [Image.open(placed[out_dir / entry.pictures[k]]).convert("RGB")
-                    for k in ("input", "result")]
-        grid(pictures, ["input", "result"], columns=2).save(files[".png"], format="PNG")
+        roles = [k for k in ("input", "result_drawing", "result") if k in entry.pictures]
+        pictures = [Image.open(placed[out_dir / entry.pictures[k]]).convert("RGB") for k in roles]
+        captions = [{"result_drawing": "our line drawing"}.get(k, k) for k in roles]
+        grid(pictures, captions, columns=len(roles)).save(files[".png"], format="PNG")
         run.program.evaluate(best.values)     # the modifier now holds the values: save them with it
         run.program.save_blend(files[".blend"])
     return entry
@@ -386,6 +410,10 @@ def input_shape(result: Reconstruction):
 
 
 def pose_facts(result: Reconstruction) -> dict:
+    if result.camera is not None:
+        view = result.camera
+        return {"azimuth": view.azimuth, "elevation": view.elevation, "roll": view.roll,
+                "scale": view.scale}
     if result.frame is None:
         return {}
     return {"up": result.frame.pose.up, **result.answers[0].where.to_dict()}
