@@ -21,6 +21,7 @@ from geocode.page import (
     median,
     picture_stem,
     render_entry,
+    single_sided,
     summary_csv,
     write_page,
 )
@@ -87,6 +88,19 @@ def test_cloud_drawn_as_spheres_at_a_subsample(tmp_path):
     faces = dict((name.rsplit("-", 1)[1], n) for name, n, _, _ in render.calls)
     assert faces["input.png"] == CLOUD_POINTS * 20          # an icosahedron per point
     assert f"{CLOUD_POINTS:,} of 5,000 points" in (tmp_path / "index.html").read_text()
+
+
+def test_a_double_sided_input_is_drawn_with_each_face_once(tmp_path):
+    """Every face repeated with the other winding on copied vertices (as in many asset files):
+    one copy of each is drawn, so that Cycles does not shade the coincident faces black."""
+    single = box()
+    doubled = trimesh.Trimesh(np.concatenate([single.vertices, single.vertices]),
+                              np.concatenate([single.faces, single.faces[:, ::-1] + len(single.vertices)]),
+                              process=False)
+    assert len(single_sided(doubled).faces) == 12 and len(single_sided(single).faces) == 12
+    render = FakeRender()
+    write_page([Entry("double.obj", "mesh", input=doubled, result=box())], tmp_path, "t", render=render)
+    assert ("double.obj-" in render.calls[0][0]) and render.calls[0][1] == 12
 
 
 def test_cloud_mesh_spheres_sit_on_the_points():

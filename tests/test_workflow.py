@@ -109,7 +109,12 @@ def test_smoke_run_reaches_the_tables(smoke_run):
     assert frame.loc["vase", "pc + fit n"] == 4
     fits = pd.concat(pd.read_parquet(p) for p in (smoke_run / "runs" / "smoke" / "vase" / "joint" / "eval"
                                                   / "rebuilt").glob("fit-*.parquet"))
-    assert len(fits) == 4 and (fits.after <= fits.before).all() and (fits.evaluations <= 20).all()
+    assert len(fits) == 8 and (fits.after <= fits.before).all() and (fits.evaluations <= 20).all()
+    assert set(fits.condition) == {"pc-fit", "sketch-az35-fit"}
+    assert frame.loc["vase", "sketch + fit n"] == 4 and frame.loc["vase", "sketch + fit"] > 0
+    cameras = pd.read_csv(tables / "camera_angles.csv", comment="#", index_col=0)
+    assert cameras.loc["vase", "angle 1 + fit n"] == 4
+    assert "line drawing is nearest" in (tables / "camera_angles.md").read_text()
     for name in ("camera_angles", "simplified", "sparse", "noise", "stability"):
         assert (tables / f"{name}.md").exists(), name
     assert "profile smoke" in (tables / "pc_vs_sketch.md").read_text()
@@ -118,6 +123,25 @@ def test_smoke_run_reaches_the_tables(smoke_run):
     assert huang.loc["vase ours", "novel camera n"] == 4 and 0 <= huang.loc["vase ours", "novel camera p"] <= 1
     predictions = pd.read_parquet(smoke_run / "runs" / "smoke" / "vase" / "huang" / "eval" / "predictions.parquet")
     assert set(predictions.modality) == {"sketch"} and set(predictions.source) == {"test"}   # clean sketches only
+
+
+@pytest.mark.parametrize("bench", [["turns", "vase", "--n", "1", "--budget", "3"],
+                                   ["fit", "vase", "--modality", "sketch", "--n", "1", "--budget", "12"]])
+def test_benchmarks_of_the_pose_and_the_drawing_fit_run_on_a_trained_model(smoke_run, monkeypatch,
+                                                                           capsys, bench):
+    import json
+
+    from geocode.cli import main
+
+    monkeypatch.chdir(smoke_run)
+    assert main(["bench", *bench, "--json", "profile=smoke"]) == 0
+    result = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    if bench[0] == "turns":     # five turns of one test shape, each fitted in its own pose
+        assert result["shapes"] == 1 and len(result["files"][0]["distances"]) == 5
+        assert result["worst_ratio"] >= 1.0 and result["median_distance"] > 0
+    else:
+        assert result["shapes"] == 1 and result["budget"] == 12
+        assert 0 < result["chamfer_before"] and 0 < result["chamfer_after"]
 
 
 def test_interrupted_dataset_run_resumes_to_identical_outputs(smoke_run, tmp_path):

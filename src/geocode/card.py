@@ -83,6 +83,7 @@ def _test_lines(metrics: Path) -> list[str]:
     clean = m[(m.source == "test") & (m.noise == 0) & (m["sparse"] == 0)]
     means = clean.groupby("modality").chamfer.agg(["mean", "count"])
     names = {"pc": "point clouds", "sketch": "sketches (every camera)", "pc+fit": "point clouds + fit",
+             "sketch+fit": "sketches + fit",
              "baseline": "the mean shape", "nearest": "the nearest training shape"}
     parts = [f"{names[k]} {means.loc[k, 'mean']:.5f}" for k in names if k in means.index]
     return [f"- Test set, mean Chamfer distance (unit sphere, squared): {'; '.join(parts)}."]

@@ -194,7 +194,8 @@ def parser() -> argparse.ArgumentParser:
     c.set_defaults(run=cmd_addon_build)
 
     c = sub.add_parser("bench", help="measure a stage's throughput")
-    c.add_argument("stage", choices=["program", "dataset", "train", "epoch", "eval", "fit", "real", "span"])
+    c.add_argument("stage", choices=["program", "dataset", "train", "epoch", "eval", "fit", "real", "span",
+                                     "turns"])
     c.add_argument("domain", nargs="?", default="vase",
                    help=f"the domain ({', '.join(domains)}); real: the folder of <domain>/ subfolders")
     c.add_argument("folder", nargs="?", type=Path, help="span: the folder of real shapes")
@@ -203,9 +204,9 @@ def parser() -> argparse.ArgumentParser:
                                                  "and the up axis agreement")
     c.add_argument("--budget", type=at_most(5000, "program evaluations", "the fit's curve flattens well "
                                           "before (docs/wild.md)", low=0),
-                   help="real: the fit's evaluations (default eval.reconstruct_budget); span: 2000")
+                   help="real, turns: the fit's evaluations (default eval.reconstruct_budget); span: 2000")
     c.add_argument("--n", type=at_most(10000, "shapes", "a rate settles within a few hundred"),
-                   help="shapes (program: 200, fit: 20 test shapes)")
+                   help="shapes (program: 200, fit: 20 test shapes, turns: 10)")
     c.add_argument("--clouds", type=at_most(100000, "clouds", "ten paper-scale epochs; the time grows with it"),
                    default=9330, help="epoch: clouds per epoch (paper-scale vase)")
     c.add_argument("--sketches", type=at_most(200000, "sketches", "ten paper-scale epochs; the time grows with it"),
@@ -411,6 +412,10 @@ def cmd_bench(args):
     if args.domain not in registry_domains():
         raise UserError(f"bench {args.stage} {args.domain}", "unknown domain",
                         f"give one of {', '.join(registry_domains())}")
+    if args.stage == "turns":
+        from geocode.bench.real import bench_turns
+
+        return bench_turns(args.overrides, args.domain, n=args.n or 10, budget=args.budget)
     if args.stage == "program":
         from geocode.bench.program import bench_program
 

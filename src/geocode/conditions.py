@@ -1,9 +1,10 @@
 """Test conditions: the kinds of input a model is tested on (docs/paper-numbers.md#robustness).
 
 Clean point clouds, sketches from each camera, noisy and sparse clouds, and point clouds and
-sketches of simplified test meshes (source `s<factor>`). The point-cloud conditions named in
-`eval.fit` come twice: as predicted, and as fitted (`<condition>-fit`, modality "pc+fit": the
-prediction refined by `geocode.fit` against the input cloud).
+sketches of simplified test meshes (source `s<factor>`). The conditions named in `eval.fit`
+come twice: as predicted, and as fitted (`<condition>-fit`, modality "pc+fit" or
+"sketch+fit": the prediction refined against its input, the cloud by `geocode.fit`, the
+sketch by `geocode.sketchfit`).
 """
 
 from __future__ import annotations
@@ -12,6 +13,8 @@ from omegaconf import DictConfig
 
 MODALITY_NAMES = {"points": "pc", "sketch": "sketch"}  # the model's inputs -> metrics' modality
 FITTED = "pc+fit"       # the modality of a cloud's prediction refined by `geocode.fit`
+SKETCH_FITTED = "sketch+fit"   # ... of a sketch's, refined by `geocode.sketchfit`
+FITS = {"pc": FITTED, "sketch": SKETCH_FITTED}   # modality -> its fitted modality
 
 
 def robustness(variant: str) -> bool:
@@ -44,10 +47,11 @@ def conditions(cfg: DictConfig, modalities=("pc", "sketch"), full: bool = True) 
 
 
 def fitted(cond: dict) -> dict:
-    """The condition of a point-cloud condition's predictions refined by the fit."""
-    return {**cond, "condition": f"{cond['condition']}-fit", "modality": FITTED}
+    """The condition of a condition's predictions refined by the fit."""
+    return {**cond, "condition": f"{cond['condition']}-fit", "modality": FITS[cond["modality"]]}
 
 
 def unfitted(cond: dict) -> dict:
-    """The inverse of `fitted`: the condition whose clouds the fit matches."""
-    return {**cond, "condition": cond["condition"].removesuffix("-fit"), "modality": "pc"}
+    """The inverse of `fitted`: the condition whose inputs the fit matches."""
+    modality = next(m for m, f in FITS.items() if f == cond["modality"])
+    return {**cond, "condition": cond["condition"].removesuffix("-fit"), "modality": modality}

@@ -112,10 +112,10 @@ def _check_known(cfg: DictConfig) -> None:
 def _check_fit(cfg: DictConfig) -> None:
     from geocode.conditions import conditions
 
-    clouds = [c["condition"] for c in conditions(cfg) if c["modality"] == "pc"]
+    names = [c["condition"] for c in conditions(cfg) if c["modality"] in ("pc", "sketch")]
     for name in cfg.eval.fit:
-        if name not in clouds:
-            raise ConfigError(f"eval.fit={name}", "not a point-cloud test condition", f"use some of {', '.join(clouds)}")
+        if name not in names:
+            raise ConfigError(f"eval.fit={name}", "not a test condition", f"use some of {', '.join(names)}")
 
 
 def _targets(node) -> list[str]:

@@ -106,6 +106,16 @@ def cloud_mesh(points: np.ndarray, n: int = CLOUD_POINTS, radius: float = SPHERE
     return trimesh.Trimesh(vertices.reshape(-1, 3), faces.reshape(-1, 3), process=False)
 
 
+def single_sided(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
+    """The mesh without faces on the same vertices as another (models made double-sided by
+    repeating every face with the other winding): in Cycles coincident faces shadow each
+    other, and such an input renders black."""
+    merged = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False)
+    merged.merge_vertices()
+    merged.update_faces(merged.unique_faces())
+    return merged
+
+
 def blender_render(mesh, png: Path, color=None, size: int | None = None) -> None:
     """The gallery's shaded renderer, in the frame the mesh comes in (not renormalised)."""
     from geocode.blender.gallery import render_mesh_png
@@ -159,7 +169,7 @@ def render_entry(entry: Entry, out_dir: str | Path, render: Render | None = None
             pictures["result_drawing"] = f"{stem}-result-drawing.png"
             save_drawing(entry.result_drawing, place(out_dir / pictures["result_drawing"]))
     else:
-        shape = cloud_mesh(entry.input) if entry.kind == "cloud" else entry.input
+        shape = cloud_mesh(entry.input) if entry.kind == "cloud" else single_sided(entry.input)
         render(shape, place(out_dir / pictures["input"]), color=INPUT_COLOR, size=SIZE)
     render(entry.result, place(out_dir / pictures["result"]), size=SIZE)
     for rank, candidate in enumerate(entry.candidates, start=2):

@@ -240,8 +240,10 @@ class Eval(Group):
     ablation_domains: each(Name) = key("domains whose ablations are trained (the paper: the chair)")
     fit_budget: whole(0) = key("program evaluations of each test shape's fit (eval.fit)")
     reconstruct_budget: whole(0) = key("program evaluations of the fit of `geocode reconstruct` (--refine)")
-    fit: each(Name) = key("point-cloud test conditions (pc, pc-noise0.02, ...) whose predictions are also "
-                          "fitted: a '+ fit' row or column")
+    sketch_fit_budget: whole(0) = key("program evaluations of each test sketch's fit (eval.fit, sketch "
+                                      "conditions)")
+    fit: each(Name) = key("test conditions (pc, pc-noise0.02, sketch-<camera>, ...) whose predictions are "
+                          "also fitted: a '+ fit' row or column")
 
 
 class Domain(Group):

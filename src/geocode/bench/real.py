@@ -124,3 +124,46 @@ def real_table(result: dict) -> str:
                      f"{r['network_vs_nearest']} | {r['seconds_median']} ({r['seconds_range'][0]}-"
                      f"{r['seconds_range'][1]}) | {r['up_agrees']} |")
     return "\n".join(lines)
+
+
+TURNS_DEGREES = (0.0, 90.0, 180.0, 270.0, 137.0)   # the quarter-turns and one arbitrary angle
+
+
+def bench_turns(overrides: list[str], domain: str, n: int = 10, budget: int | None = None) -> dict:
+    """`geocode reconstruct` (up axis and front found, fit of `budget` evaluations) on each of
+    the first `n` test shapes of the run turned by TURNS_DEGREES about the up axis: per shape
+    the fitted distances (plain Chamfer, in the input's pose) and the largest over the
+    smallest; a tool that finds the pose gives every turn the same program."""
+    import tempfile
+
+    import numpy as np
+    import trimesh
+
+    from geocode import paths
+    from geocode.config import compose
+    from geocode.meshio import read_obj
+    from geocode.steps.evaluate import test_ids
+    from geocode.tools.reconstruct import Reconstructor
+
+    cfg = compose([*overrides, f"domain={domain}"])
+    run = Reconstructor(cfg, domain, refine=budget)
+    test = paths.split_dir(cfg, domain, "test")
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for shape_id in test_ids(cfg, domain)[:n]:
+            mesh = read_obj(paths.shape_file(paths.shapes_dir(test), shape_id))
+            distances = []
+            for degrees in TURNS_DEGREES:
+                turned = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False)
+                turned.apply_transform(trimesh.transformations.rotation_matrix(np.radians(degrees), [0, 0, 1]))
+                path = Path(tmp) / f"{shape_id}-{degrees:g}.obj"
+                turned.export(path)
+                distances.append(run(path).answers[0].chamfer)
+            rows.append({"shape": shape_id, "distances": [round(d, 6) for d in distances],
+                         "ratio": round(max(distances) / min(distances), 3)})
+    ratios = [r["ratio"] for r in rows]
+    return {"domain": domain, "shapes": len(rows), "turns": list(TURNS_DEGREES),
+            "median_ratio": round(statistics.median(ratios), 3), "worst_ratio": max(ratios),
+            "within_1.2x": f"{sum(r <= 1.2 for r in ratios)}/{len(rows)}",
+            "median_distance": round(statistics.median(d for r in rows for d in r["distances"]), 6),
+            "files": rows}

@@ -20,7 +20,7 @@ from omegaconf import DictConfig
 
 from geocode import paths
 from geocode.card import write_card
-from geocode.conditions import FITTED, MODALITY_NAMES, conditions, robustness, unfitted
+from geocode.conditions import FITS, MODALITY_NAMES, conditions, robustness, unfitted
 from geocode.config import NAME
 from geocode.errors import UserError
 from geocode.meshio import (
@@ -91,6 +91,15 @@ def sketch_path(cfg: DictConfig, domain: str, cond: dict, shape_id: str) -> Path
     return paths.sketch_file(split, shape_id, cond["camera"])
 
 
+def model_input(cfg: DictConfig, domain: str, cond: dict, shape_id: str) -> tuple[str, np.ndarray]:
+    """("points", cloud) or ("sketch", drawing) of one shape under a pc or sketch condition."""
+    from geocode.steps.train_data import load_sketch
+
+    if cond["modality"] == "pc":
+        return "points", point_input(cfg, domain, cond, shape_id)
+    return "sketch", load_sketch(sketch_path(cfg, domain, cond, shape_id))
+
+
 # -- prediction ---------------------------------------------------------------------------------
 
 def predict_step(cfg: DictConfig, domain: str, checkpoint: Path, out: Path) -> str:
@@ -108,8 +117,8 @@ def predict_step(cfg: DictConfig, domain: str, checkpoint: Path, out: Path) -> s
     frames = []
     for cond in conditions(cfg, modalities, full):
         start = time.perf_counter()
-        if cond["modality"] == FITTED:  # the fit's start: the prediction and its likeliest classes
-            ranked = [ranked_prediction(model, recipe, "points", point_input(cfg, domain, unfitted(cond), i), decode)
+        if cond["modality"] in FITS.values():  # the fit's start: the prediction and its likeliest classes
+            ranked = [ranked_prediction(model, recipe, *model_input(cfg, domain, unfitted(cond), i), decode)
                       for i in ids]
             frame = pd.DataFrame([values for values, _ in ranked])
             frame[OPTIONS] = [json.dumps(options) for _, options in ranked]
@@ -176,7 +185,7 @@ def rebuild_step(cfg: DictConfig, domain: str, predictions: Path, shard: int) ->
     jobs, fits = [], []
     for r in table.to_dict("records"):
         values = {n: r[n] for n in names}
-        if r["modality"] == FITTED:
+        if r["modality"] in FITS.values():
             values, stats = fit_prediction(cfg, domain, program, recipe, r, values)
             fits.append(stats)
         jobs.append((paths.rebuilt_key(r["condition"], r["id"]), values))
@@ -188,13 +197,18 @@ def rebuild_step(cfg: DictConfig, domain: str, predictions: Path, shard: int) ->
 
 
 def fit_prediction(cfg: DictConfig, domain: str, program, recipe, row: dict, values: dict) -> tuple[dict, dict]:
-    """(fitted values, the fit's record) of one prediction of a fitted condition."""
+    """(fitted values, the fit's record) of one prediction of a fitted condition: a cloud's
+    by `geocode.fit` (eval.fit_budget), a sketch's by `geocode.sketchfit` (its distances in
+    px; eval.sketch_fit_budget)."""
     from geocode.fit import Start, fit
+    from geocode.sketchfit import fit_drawing
 
-    # Test clouds sit in the program's own frame, so the pose is not searched.
-    cloud = point_input(cfg, domain, unfitted(row), row["id"])
-    result = fit(program, recipe, [Start(values, json.loads(row[OPTIONS]))], cloud,
-                 cfg.eval.fit_budget, seed=cfg.seed, pose=False)
+    kind, target = model_input(cfg, domain, unfitted(row), row["id"])
+    start = [Start(values, json.loads(row[OPTIONS]))]
+    if kind == "sketch":
+        result = fit_drawing(program, recipe, start, target, cfg.eval.sketch_fit_budget, seed=cfg.seed)
+    else:   # test clouds sit in the program's own frame, so the pose is not searched
+        result = fit(program, recipe, start, target, cfg.eval.fit_budget, seed=cfg.seed, pose=False)
     stats = {"condition": row["condition"], "id": row["id"], "before": result.before, "after": result.after,
              "evaluations": result.evaluations, "seconds": result.seconds}
     return result.values, stats

@@ -21,7 +21,7 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
-from geocode.conditions import FITTED
+from geocode.conditions import FITTED, SKETCH_FITTED
 from geocode.meshio import write_text
 
 DOMAIN_ORDER = ["chair", "vase", "table", "ceiling_lamp", "cabinet"]
@@ -98,8 +98,12 @@ TITLES = {
 
 FIT_NOTE = ("pc + fit (not the paper's method): each point-cloud prediction refined by a derivative-free "
             "search (CMA-ES, eval.fit_budget program evaluations) for the shape nearest the input cloud.")
-NOTES = {
-    "pc_vs_sketch": FIT_NOTE,
+SKETCH_FIT_NOTE = ("+ fit on sketches (not the paper's method): each sketch's prediction refined by a search "
+                   "of the parameters and the camera (eval.sketch_fit_budget program evaluations) for the "
+                   "shape whose line drawing is nearest the sketch's strokes.")
+NOTES = {   # a fit's note where its column is in the table
+    "pc_vs_sketch": {"pc + fit": FIT_NOTE, "sketch + fit": SKETCH_FIT_NOTE},
+    "camera_angles": {"+ fit": SKETCH_FIT_NOTE},
     "vs_huang": "Huang et al. 2017 as the paper describes it: sketches only, one network classifying the "
                 "discrete parameters and a separate one regressing the continuous ones, trained from scratch "
                 "on our training split (no pretrained weights are reachable here). p: paired Wilcoxon "
@@ -112,8 +116,8 @@ NOTES = {
 
 # Columns in the paper's order; the noise and sparse tables sort theirs by value.
 COLUMNS = {
-    "pc_vs_sketch": ["pc", "sketch", "pc + fit"],
-    "camera_angles": ["angle 1", "angle 2", "novel"],
+    "pc_vs_sketch": ["pc", "sketch", "pc + fit", "sketch + fit"],
+    "camera_angles": ["angle 1", "angle 2", "novel", "angle 1 + fit", "angle 2 + fit", "novel + fit"],
     "simplified": ["full", "1/10", "1/100"],
     "stability": ["GT", "PC pred", "sketch pred"],
     "vs_huang": ["trained cameras", "novel camera"],
@@ -178,6 +182,8 @@ def pc_vs_sketch(m: pd.DataFrame, trained: list[str]) -> tuple[Cells, dict[str, 
         out[(domain, "sketch")] = per_shape(_trained(d[d.modality == "sketch"], trained))
         if (d.modality == FITTED).any():
             out[(domain, "pc + fit")] = per_shape(d[d.modality == FITTED])
+        if (d.modality == SKETCH_FITTED).any():
+            out[(domain, "sketch + fit")] = per_shape(_trained(d[d.modality == SKETCH_FITTED], trained))
         for modality, row in (("baseline", "mean-shape baseline"), ("nearest", "nearest training shape")):
             base = d[d.modality == modality]
             if len(base):
@@ -188,10 +194,11 @@ def pc_vs_sketch(m: pd.DataFrame, trained: list[str]) -> tuple[Cells, dict[str, 
 
 
 def camera_angles(m: pd.DataFrame, trained: list[str], novel: list[str]) -> Cells:
-    sketches = _clean(m[(m.variant == "joint") & (m.modality == "sketch")])
+    sketches = _clean(m[(m.variant == "joint") & m.modality.isin(["sketch", SKETCH_FITTED])])
     names = {**{c: f"angle {i + 1}" for i, c in enumerate(trained)}, **{c: "novel" for c in novel}}
-    return {(domain, names[cam]): per_shape(g) for (domain, cam), g in sketches.groupby(["domain", "camera"])
-            if cam in names}
+    suffix = {"sketch": "", SKETCH_FITTED: " + fit"}
+    return {(domain, names[cam] + suffix[modality]): per_shape(g)
+            for (domain, cam, modality), g in sketches.groupby(["domain", "camera", "modality"]) if cam in names}
 
 
 def simplified(m: pd.DataFrame, trained: list[str]) -> Cells:
@@ -199,15 +206,15 @@ def simplified(m: pd.DataFrame, trained: list[str]) -> Cells:
     base = m[(m.variant == "joint") & (m.noise == 0) & (m["sparse"] == 0) & m.source.isin(columns)]
     out = {}
     for (domain, modality, source), g in base.groupby(["domain", "modality", "source"]):
-        if modality == "sketch":
+        if modality in ("sketch", SKETCH_FITTED):
             g = _trained(g, trained)
-        if modality in ("pc", "sketch", FITTED):
+        if modality in ("pc", "sketch", FITTED, SKETCH_FITTED):
             out[(f"{domain} {_label(modality)}", columns[source])] = per_shape(g)
     return out
 
 
 def _label(modality: str) -> str:
-    return "pc + fit" if modality == FITTED else modality
+    return {FITTED: "pc + fit", SKETCH_FITTED: "sketch + fit"}.get(modality, modality)
 
 
 def _clouds(m: pd.DataFrame) -> pd.DataFrame:
@@ -466,6 +473,9 @@ def write_tables(metrics: pd.DataFrame, cameras: list[dict], out_dir: Path, head
     for name, frame in tables.items():
         percent = name == "stability"
         note = NOTES.get(name, "")
+        if isinstance(note, dict):
+            note = " ".join(text for column, text in note.items()
+                            if any(c.endswith(column) for c in frame.columns))
         write_text(out_dir / f"{name}.csv", f"# {header}\n" + frame.to_csv(float_format="%.6g"))
         write_text(out_dir / f"{name}.md", markdown(frame, TITLES[name], header, percent, note))
         write_text(out_dir / f"{name}.tex", latex(frame, TITLES[name], header, percent, note))
