@@ -10,7 +10,8 @@ is anyone's guess), and the nearest training shapes join its answers as starts; 
 scores every start and searches the program's parameters and the shape's pose from the best.
 A drawing of any size and stroke width is cropped to its strokes, scaled to the sketches'
 extent, its strokes thinned or thickened to theirs (2 px), and binarised onto a 224x224 white
-canvas; the network alone answers it.
+canvas; the network answers it, and `geocode.sketchfit` searches the parameters and the camera
+for the shape whose line drawing is nearest its strokes (docs/wild.md, Drawings).
 """
 
 from __future__ import annotations
