@@ -66,7 +66,7 @@ def test_every_input_kind_gives_values_mesh_preview_and_blend(files, tmp_path, c
     code = main(["reconstruct", "vase", str(files["root"] / name), "-o", str(tmp_path),
                  "--checkpoint", str(files["ckpt"]), "--json", *refine])
     assert code == 0
-    summary = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    summary = json.loads(capsys.readouterr().out)      # --json prints the JSON alone
     stem = name.split(".")[0]
     drawing = name.endswith(".jpg")
     per_input = (".yaml", ".obj", ".png", ".blend") + (() if drawing else (".in-place.obj",))

@@ -10,8 +10,10 @@ beyond importing bpy lazily.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import importlib.util
+import io
 import math
 import os
 from collections.abc import Mapping
@@ -181,12 +183,17 @@ class Program:
         that opens in Blender's Geometry Nodes editor."""
         import bpy
 
+        from geocode.blender.scene import quiet_stdout
+
         self._ensure_alive()
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
         partial = path.parent / f".{path.stem}.partial.blend"
         try:
-            bpy.ops.wm.save_as_mainfile(filepath=str(partial), copy=True, check_existing=False)
+            # Blender's 'Info: Saved copy as' (at C level, or through sys.stdout when Python's
+            # own stdout is captured) would break --json output
+            with quiet_stdout(), contextlib.redirect_stdout(io.StringIO()):
+                bpy.ops.wm.save_as_mainfile(filepath=str(partial), copy=True, check_existing=False)
             os.replace(partial, path)
         finally:
             partial.unlink(missing_ok=True)
