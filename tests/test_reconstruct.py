@@ -38,6 +38,21 @@ def untrained_checkpoint(path, domain):
     return path
 
 
+def older_program_checkpoint(checkpoint, path):
+    """`checkpoint`, stamped as trained when the program's first float had other classes
+    (its range changed since): its classes would decode to other values."""
+    import torch
+
+    from geocode.checkpoints import recipe_stamp
+
+    recipe = Program.load("vase").recipe()
+    stamp = recipe_stamp(recipe)
+    name = next(p.name for p in recipe.parameters if p.kind == "float")
+    stamp["grid"][name] = [v * 0.5 if isinstance(v, float) else v for v in stamp["grid"][name]]
+    torch.save({**torch.load(checkpoint, weights_only=True), "recipe": stamp}, path)
+    return path
+
+
 @pytest.fixture(scope="module")
 def files(tmp_path_factory):
     """A vase as every input kind, and checkpoints."""
@@ -192,7 +207,9 @@ def test_blank_image_missing_and_foreign_checkpoints_are_refused(files, tmp_path
     Image.new("L", (300, 300), 255).save(blank)
     out = tmp_path / "out"
     chair_ckpt = untrained_checkpoint(tmp_path / "chair.ckpt", "chair")
+    older = older_program_checkpoint(files["ckpt"], tmp_path / "older.ckpt")
     cases = [
+        ([str(files["root"] / "vase.obj"), "--checkpoint", str(older)], "retrain"),
         ([str(blank), "--checkpoint", str(files["ckpt"])], "blank"),
         ([str(files["root"] / "vase.obj"), "--checkpoint", str(tmp_path / "none.ckpt")], "no trained vase model"),
         ([str(files["root"] / "vase.obj"), "--checkpoint", str(chair_ckpt)], "other parameters"),

@@ -52,6 +52,9 @@ def read_checkpoint(path: str | Path, map_location="cpu") -> dict:
     return dict(ckpt)
 
 
+RETRAIN = "retrain (`snakemake -j2 results/tables` sets a stale run aside and trains afresh)"
+
+
 def check_recipe(ckpt: Mapping, recipe, path) -> None:
     """Refuse to decode a checkpoint's classes on another class grid than it was trained on."""
     from geocode.models.heads import head_specs
@@ -61,11 +64,15 @@ def check_recipe(ckpt: Mapping, recipe, path) -> None:
     else:  # a checkpoint from before the stamp: the class counts of its heads
         mine = {h["name"]: h["n_classes"] for h in head_specs(recipe)}
         theirs = {h["name"]: h["n_classes"] for h in ckpt["hyper_parameters"]["heads"]}
+    if set(mine) != set(theirs):
+        raise CheckpointError(path, "trained for other parameters than this recipe's (another program, "
+                              "or an older version of this one)", f"pass a checkpoint of this program, or {RETRAIN}")
     for name in sorted(set(mine) | set(theirs)):
         if mine.get(name) != theirs.get(name):
+            # a program or recipe changed since training (its classes now mean other values)
             raise CheckpointError(path, f"trained on another recipe ({name}: classes {theirs.get(name)}, "
                                   f"the recipe gives {mine.get(name)})",
-                                  "predict with the recipe it was trained on, or retrain")
+                                  f"predict with the recipe it was trained on, or {RETRAIN}")
 
 
 def load_model(checkpoint: str | Path, map_location="cpu", recipe=None) -> GeoCodeNet:
@@ -134,15 +141,6 @@ def predict(checkpoint: str | Path, points=None, sketches=None, batch_size: int 
 def default_checkpoint(cfg, domain: str) -> Path:
     """The domain's joint model of the run in `cfg`: what `geocode reconstruct` uses."""
     return paths.checkpoint_file(paths.run_dir(cfg, domain, "joint"))
-
-
-def check_checkpoint(model, recipe, checkpoint: Path, domain: str) -> None:
-    """The checkpoint's decoders must be this recipe's, else its classes mean other values."""
-    from geocode.models.heads import head_specs
-
-    if list(model.hparams.heads) != head_specs(recipe):
-        raise CheckpointError(checkpoint, f"this model was trained for other parameters than {domain!r}'s recipe",
-                              f"pass the checkpoint of a {domain} model")
 
 
 def ranked_prediction(model, recipe, modality: str, data: np.ndarray, decode: str, k: int = TOP_CLASSES):

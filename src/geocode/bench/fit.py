@@ -7,7 +7,7 @@ import statistics
 import numpy as np
 
 from geocode import paths
-from geocode.checkpoints import check_checkpoint, default_checkpoint, load_model, ranked_prediction
+from geocode.checkpoints import default_checkpoint, load_model, ranked_prediction
 from geocode.conditions import conditions
 from geocode.fit import Start, fit
 from geocode.meshio import read_obj
@@ -22,8 +22,7 @@ def bench_fit(cfg, domain: str, n: int = 10) -> dict:
     program = Program.load(domain)
     recipe = program.recipe()
     checkpoint = default_checkpoint(cfg, domain)
-    model = load_model(checkpoint)
-    check_checkpoint(model, recipe, checkpoint, domain)
+    model = load_model(checkpoint, recipe=recipe)
     clean = next(c for c in conditions(cfg) if c["condition"] == "pc")
     before, after, seconds, evaluations = [], [], [], 0
     for shape_id in test_ids(cfg, domain)[:n]:

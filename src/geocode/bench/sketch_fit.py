@@ -11,7 +11,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from geocode import paths
-from geocode.checkpoints import check_checkpoint, default_checkpoint, load_model, ranked_prediction
+from geocode.checkpoints import default_checkpoint, load_model, ranked_prediction
 from geocode.fit import Start
 from geocode.meshio import read_obj
 from geocode.metrics import chamfer_meshes
@@ -30,8 +30,7 @@ def bench_sketch_fit(cfg, domain: str, n: int = 10, camera: str = "trained",
     program = Program.load(domain)
     recipe = program.recipe()
     checkpoint = default_checkpoint(cfg, domain)
-    model = load_model(checkpoint)
-    check_checkpoint(model, recipe, checkpoint, domain)
+    model = load_model(checkpoint, recipe=recipe)
     cams = [c.name for c in cfg.data.sketch.cameras if bool(c.train) == (camera == "trained")]
     test = paths.split_dir(cfg, domain, "test")
     before, after, seconds, curves = [], [], [], []

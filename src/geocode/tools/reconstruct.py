@@ -143,7 +143,7 @@ class Reconstructor:
     def __init__(self, cfg, domain: str, checkpoint: Path | None = None,
                  refine: int | None = None, up: str = "auto", candidates: int = 1, model: bool = True):
         from geocode import paths
-        from geocode.checkpoints import check_checkpoint, default_checkpoint, load_model
+        from geocode.checkpoints import default_checkpoint, load_model
         from geocode.program import Program
 
         self.cfg, self.domain, self.up, self.candidates = cfg, domain, up, candidates
@@ -161,8 +161,7 @@ class Reconstructor:
             raise UserError(
                 f"{self.checkpoint}: no trained {domain} model; run `snakemake -j2 results/tables` "
                 f"(or `geocode train domain={domain}`) first, or pass --checkpoint")
-        self.model = load_model(self.checkpoint)
-        check_checkpoint(self.model, self.recipe, self.checkpoint, domain)
+        self.model = load_model(self.checkpoint, recipe=self.recipe)
         self.training = training_shapes(paths.split_dir(cfg, domain, "train"))
 
     def __call__(self, path: Path) -> Reconstruction:
