@@ -1,18 +1,26 @@
-"""The table program (36 parameters: 6 discrete, 30 continuous).
+"""The table program (37 parameters: 7 discrete, 30 continuous).
 
 Layout: x = width, y = depth, z = up. Structure (every part touches the rest for every
 parameter combination):
-- top: MeshSeat, a slab whose outline morphs from a rectangle to a round top; its `Corner`
-  (the middle of the rounded corner of the outline) is the anchor of the legs, so a rounder
-  top pulls them inwards and they stay under it;
-- four legs (MeshLeg: straight or curved, tapered, square to round, splayed) hang from under
-  the corners, starting inside the slab, so raising the top moves them with it; they are
-  built for the +x +y corner and mirrored in x and y;
+- top: MeshSeat, a slab whose outline morphs from a rectangle to a round top; its edges
+  round off over at most half its thickness (`top_bevel`), so it stays a flat slab at any
+  size; its `Corner` (the middle of the rounded corner of the outline) is the anchor of the
+  legs, so a rounder top pulls them inwards and they stay under it. Proportions span low
+  coffee tables, tall narrow side tables and long dining tables;
+- `leg_style` 0, four legs (MeshLeg: straight or curved, tapered, square to round, splayed)
+  hang from under the corners, starting inside the slab, so raising the top moves them with
+  it; they are built for the +x +y corner and mirrored in x and y (never crossing on a
+  small top);
+- `leg_style` 1, X-frame ends: under each end two straight bars cross in an X from the
+  floor (splayed out in y) up into the slab, and a tie bar along x joins the crossings;
+- `leg_style` 2, trestle ends: under each end a post stands on a foot bar that lies on the
+  floor along y, and a tie bar along x joins the posts low down;
 - aprons: bars (MeshStraightFrame) under the top from leg to leg, reaching up into the slab,
-  set from flush with the legs' outer faces to flush with their inner faces;
-- stretchers (none, H or X bars) and a lower shelf (MeshSeat) attach to the legs by curve
-  sampling (SampleCurve): at a share of each leg's length, measured from the foot, on the
-  leg's own axis, so they follow the legs' curvature and splay;
+  set from flush with the legs' outer faces to flush with their inner faces (under end
+  frames they are the cleats along y and the rails along x);
+- with four legs, stretchers (none, H or X bars) and a lower shelf (MeshSeat) attach to the
+  legs by curve sampling (SampleCurve): at a share of each leg's length, measured from the
+  foot, on the leg's own axis, so they follow the legs' curvature and splay;
 - or a pedestal: a column whose silhouette is a Bezier profile (StyleBezierSegment) on
   radial feet (MeshQuadraticCartesian, arched by their curvature) or on a round base plate;
 - the table is grounded so that its lowest point lies on z = 0.
@@ -56,7 +64,7 @@ def _parameters(g: Graph) -> dict:
     add("top_height", "float", 0.75, 0.4, 0.9, "height of the top's upper face")
     add("top_width", "float", 1.2, 0.4, 2.0, "width of the top (x)")
     add("top_depth", "float", 0.8, 0.25, 1.2, "depth of the top (y)")
-    add("top_thickness", "float", 0.04, 0.015, 0.12, "thickness of the top")
+    add("top_thickness", "float", 0.04, 0.015, 0.1, "thickness of the top")
     add("top_roundness", "float", 0.0, 0.0, 1.0, "top outline: 0 rectangle, 1 round")
     add("top_bevel", "float", 0.5, 0.0, 1.0, "edge rounding (share of half the thickness)")
     # legs
