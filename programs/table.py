@@ -1,11 +1,13 @@
-"""The table program (37 parameters: 7 discrete, 30 continuous).
+"""The table program (38 parameters: 7 discrete, 31 continuous).
 
 Layout: x = width, y = depth, z = up. Structure (every part touches the rest for every
 parameter combination):
 - top: MeshSeat, a slab whose outline morphs from a rectangle to a round top; its edges
   round off over at most half its thickness (`top_bevel`), so it stays a flat slab at any
   size; its `Corner` (the middle of the rounded corner of the outline) is the anchor of the
-  legs, so a rounder top pulls them inwards and they stay under it. Proportions span low
+  legs, so a rounder top pulls them inwards and they stay under it. `top_cut` folds a share
+  of the back half onto a straight edge: a round top becomes a half-round (demilune) one,
+  re-centred, its mirrored legs still under it. Proportions span low
   coffee tables, tall narrow side tables and long dining tables;
 - `leg_style` 0, four legs (MeshLeg: straight or curved, tapered, square to round, splayed)
   hang from under the corners, starting inside the slab, so raising the top moves them with
@@ -67,6 +69,7 @@ def _parameters(g: Graph) -> dict:
     add("top_thickness", "float", 0.04, 0.015, 0.1, "thickness of the top")
     add("top_roundness", "float", 0.0, 0.0, 1.0, "top outline: 0 rectangle, 1 round")
     add("top_bevel", "float", 0.5, 0.0, 1.0, "edge rounding (share of half the thickness)")
+    add("top_cut", "float", 0.0, 0.0, 1.0, "back cut straight: 1 halves a round top (a D)")
     # legs
     add("pedestal", "bool", False, 0, 1, "a central pedestal instead of legs")
     add("leg_style", "int", 0, 0, 2, "legs: 0 four legs, 1 X-frame ends, 2 trestle ends")
@@ -113,10 +116,21 @@ class _Table:
         # MeshSeat's Bevel is a share of the outline's half-size: the rounding's reach,
         # at most half the slab's thickness, over the longer half-size, so the top stays a
         # flat slab and only its edges round off
-        bevel = p["top_bevel"] * p["top_thickness"] / g.max(p["top_width"], p["top_depth"])
-        top = seat(g, width=p["top_width"], depth=p["top_depth"], roundness=p["top_roundness"],
+        # the outline is made deep enough that cutting `top_cut` of its back half off
+        # leaves `top_depth`; the cut folds the back onto a straight edge (a half-round
+        # from a round outline) and the whole top moves forward to stay centred
+        cut = p["top_cut"]
+        full = g.named("full depth", p["top_depth"] * 2.0 / (2.0 - cut))
+        bevel = p["top_bevel"] * p["top_thickness"] / g.max(p["top_width"], full)
+        top = seat(g, width=p["top_width"], depth=full, roundness=p["top_roundness"],
                    top=p["top_height"], thickness=p["top_thickness"], bevel=bevel, label=TOP)
-        self.mesh, self.corner = top["Mesh"], top["Corner"]
+        back, shift = full * ((cut - 1.0) * 0.5), full * (cut * 0.25)
+        at = g.position()
+        self.mesh = g.set_position(top["Mesh"],
+                                   position=g.vec(at.x, g.max(at.y, back) - shift, at.z))
+        # the front corner, moved with the top; mirrored, it lies inside the straight back
+        corner = top["Corner"]
+        self.corner = g.named("corner", g.vec(corner.x, corner.y - shift, 0.0))
         # attachments start inside the slab: halfway down from its top
         self.inside = g.named("inside", p["top_height"] - p["top_thickness"] * SINK)
         self.underside = g.named("underside", p["top_height"] - p["top_thickness"])

@@ -29,8 +29,8 @@ def _vertices(mesh, *labels) -> np.ndarray:
 
 def test_parameters_match_the_paper_counts(program):
     kinds = [p.kind for p in program.parameters]
-    assert len(kinds) == 37
-    assert kinds.count("float") == 30 and len(kinds) - kinds.count("float") == 7
+    assert len(kinds) == 38
+    assert kinds.count("float") == 31 and len(kinds) - kinds.count("float") == 7
     for p in program.parameters:
         assert p.description and p.min <= p.default <= p.max, p.name
 
@@ -308,3 +308,28 @@ def test_trestles_stand_posts_on_foot_bars(program, label):
     assert np.abs(feet[:, 1]).max() == pytest.approx(0.4 - 0.048 + 0.1, abs=1e-3)
     assert loose_parts(mesh) == 0
     assert drop_test(mesh)["stable"]
+
+
+def test_top_cut_halves_a_round_top_into_a_demilune_with_its_legs_under_it(program, label):
+    values = {"top_width": 1.0, "top_depth": 0.5, "top_roundness": 1.0, "leg_splay": 0.0,
+              "leg_thickness": 0.02, "aprons": 0}
+    whole = _vertices(program.evaluate(values), label.TOP)
+    mesh = program.evaluate({**values, "top_cut": 1.0})
+    top, legs = _vertices(mesh, label.TOP), _vertices(mesh, label.LEGS)
+    # the same extent, centred
+    for v in (whole, top):
+        assert v[:, 1].min() == pytest.approx(-0.25, abs=1e-3)
+        assert v[:, 1].max() == pytest.approx(0.25, abs=1e-3)
+        assert np.ptp(v[:, 0]) == pytest.approx(1.0, abs=1e-3)
+    # a straight back as wide as the top, a front that narrows as a half-ellipse would
+    back = top[top[:, 1] < -0.25 + 1e-4]
+    assert np.ptp(back[:, 0]) == pytest.approx(1.0, abs=1e-3)
+    front = top[top[:, 1] > 0.2]
+    assert np.abs(front[:, 0]).max() < 0.3
+    assert np.abs(whole[whole[:, 1] > 0.2][:, 0]).max() > 0.35
+    # the legs' tops lie under the half-ellipse x^2 / 0.5^2 + (y + 0.25)^2 / 0.5^2 < 1
+    tops = legs[legs[:, 2] > legs[:, 2].max() - 1e-3]
+    assert (np.hypot(tops[:, 0] / 0.5, (tops[:, 1] + 0.25) / 0.5) < 1.0).all()
+    assert (tops[:, 1] > -0.25).all()
+    result = drop_test(mesh)
+    assert result["loose_parts"] == 0 and result["stable"]
