@@ -16,6 +16,8 @@ DOMAIN = "table"  # the `program` and `label` fixtures (conftest.py) load it
 FULL = {"pedestal": 0, "aprons": 1, "stretchers": 1, "shelf": 1, "stretcher_height": 0.4,
         "shelf_height": 0.15}
 FEET = {"pedestal": 1, "base_plate": 0}
+X_FRAMES = {"pedestal": 0, "leg_style": 1}
+TRESTLES = {"pedestal": 0, "leg_style": 2}
 PLATE = {"pedestal": 1, "base_plate": 1}
 
 
@@ -27,8 +29,8 @@ def _vertices(mesh, *labels) -> np.ndarray:
 
 def test_parameters_match_the_paper_counts(program):
     kinds = [p.kind for p in program.parameters]
-    assert len(kinds) == 36
-    assert kinds.count("float") == 30 and len(kinds) - kinds.count("float") == 6
+    assert len(kinds) == 38
+    assert kinds.count("float") == 31 and len(kinds) - kinds.count("float") == 7
     for p in program.parameters:
         assert p.description and p.min <= p.default <= p.max, p.name
 
@@ -37,11 +39,14 @@ def test_visibility_rules_are_inferred_from_the_switches(program):
     rules = {name: None if rule is None else str(rule)
              for name, rule in program.visibility().items()}
     assert rules["top_height"] is None and rules["pedestal"] is None
-    assert rules["leg_splay"] == "not pedestal"
+    # in every leg style (the rule lists them), only in the four legs
+    assert rules["leg_splay"] == " or ".join(f"leg_style == {k} and not pedestal"
+                                             for k in range(3))
+    assert rules["leg_curvature"] == "leg_style == 0 and not pedestal"
     assert rules["apron_inset"] == "aprons and not pedestal"
-    assert rules["stretcher_height"] == ("not pedestal and stretchers == 1 or "
-                                         "not pedestal and stretchers == 2")
-    assert rules["shelf_thickness"] == "not pedestal and shelf"
+    assert rules["stretcher_height"] == ("leg_style == 0 and not pedestal and stretchers == 1 or "
+                                         "leg_style == 0 and not pedestal and stretchers == 2")
+    assert rules["shelf_thickness"] == "leg_style == 0 and not pedestal and shelf"
     assert rules["column_roundness"] == "pedestal"
     # through the feet (not base_plate) and through the plate (base_plate)
     assert rules["foot_spread"] == "pedestal"
@@ -52,6 +57,9 @@ def test_visibility_rules_are_inferred_from_the_switches(program):
 @pytest.mark.parametrize("hidden, change", [
     ({"pedestal": 1}, {"leg_splay": 0.1, "aprons": 0, "stretchers": 2, "shelf": 1}),
     ({"pedestal": 0}, {"base_plate": 1, "column_top_radius": 0.1, "foot_count": 6}),
+    ({"pedestal": 1}, {"leg_style": 2}),
+    (X_FRAMES, {"leg_curvature": 1.0, "stretchers": 2, "shelf": 1, "shelf_height": 0.3}),
+    (TRESTLES, {"leg_curvature": 1.0, "stretchers": 1, "stretcher_thickness": 0.02}),
     ({"aprons": 0}, {"apron_height": 0.15}),
     ({"stretchers": 0}, {"stretcher_height": 0.45, "stretcher_thickness": 0.02}),
     ({"shelf": 0}, {"shelf_height": 0.35}),
@@ -70,6 +78,10 @@ def test_every_part_carries_its_own_label(program, label):
     assert set(program.evaluate(FEET).metadata["part"]) == {label.TOP, label.COLUMN, label.FEET}
     assert set(program.evaluate(PLATE).metadata["part"]) == {label.TOP, label.COLUMN,
                                                            label.BASE_PLATE}
+    assert set(program.evaluate(X_FRAMES).metadata["part"]) == {
+        label.TOP, label.LEGS, label.APRONS, label.STRETCHERS}
+    assert set(program.evaluate({**TRESTLES, "aprons": 0}).metadata["part"]) == {
+        label.TOP, label.LEGS, label.FEET, label.STRETCHERS}
 
 
 def _moves(program, layout, parameter) -> bool:
@@ -208,3 +220,116 @@ def test_random_tables_are_finite_grounded_whole_and_stand(program):
         assert mesh.vertices[:, 2].min() == pytest.approx(0.0, abs=1e-6), values
         result = drop_test(mesh)
         assert result["loose_parts"] == 0 and result["stable"], values
+
+
+# -- top, proportions, end frames ------------------------------------------------------------------
+
+@pytest.mark.parametrize("roundness", [0.0, 1.0])
+def test_the_top_is_a_flat_slab_whose_edges_round_within_its_thickness(program, label,
+                                                                        roundness):
+    """Even on a wide, thick top at full bevel, the upper face is flat and reaches to
+    within half the thickness of the outline; bevel 0 leaves square edges."""
+    values = {"top_width": 2.0, "top_depth": 1.2, "top_thickness": 0.1,
+              "top_roundness": roundness}
+    for bevel, reach in ((1.0, 0.05), (0.0, 0.0)):
+        top = _vertices(program.evaluate({**values, "top_bevel": bevel}), label.TOP)
+        upper = top[top[:, 2] > top[:, 2].max() - 1e-4]
+        assert upper[:, 0].max() == pytest.approx(1.0 - reach, abs=1e-3), bevel
+        # nothing of the top rises above that flat face
+        assert top[:, 2].max() - upper[:, 2].min() < 1e-4
+
+
+def test_bevel_rounds_more_on_a_thicker_top(program, label):
+    def upper_reach(thickness):
+        top = _vertices(program.evaluate({"top_thickness": thickness, "top_bevel": 1.0}),
+                        label.TOP)
+        return top[top[:, 2] > top[:, 2].max() - 1e-4][:, 0].max()
+
+    assert upper_reach(0.02) - upper_reach(0.1) == pytest.approx(0.04, abs=1e-3)
+
+
+@pytest.mark.parametrize("values", [
+    # a long low coffee table on splayed legs, a tall narrow side table, a long dining table
+    {"top_height": 0.4, "top_width": 1.25, "top_depth": 0.5, "top_roundness": 1.0,
+     "leg_splay": 0.06, "leg_thickness": 0.012, "aprons": 0},
+    {"top_height": 0.9, "top_width": 0.4, "top_depth": 0.4, "leg_thickness": 0.05,
+     "leg_inset": 0.3, "top_roundness": 1.0, "shelf": 1},
+    {"top_height": 0.75, "top_width": 2.0, "top_depth": 0.9, "stretchers": 1},
+])
+def test_real_proportions_stand_whole(program, label, values):
+    mesh = program.evaluate(values)
+    size = mesh.vertices.max(0) - mesh.vertices.min(0)
+    top = _vertices(mesh, label.TOP)
+    assert size[2] == pytest.approx(values["top_height"], abs=0.01)
+    assert np.ptp(top[:, 0]) == pytest.approx(values["top_width"], abs=1e-3)
+    result = drop_test(mesh)
+    assert result["loose_parts"] == 0 and result["stable"]
+    # the legs stay apart and under the top
+    legs = _vertices(mesh, label.LEGS)
+    assert np.abs(legs[:, 0]).min() > 0.0 and np.abs(legs[:, 1]).min() > 0.0
+
+
+@pytest.mark.parametrize("splay", [0.0, 0.1])
+def test_x_frames_cross_under_each_end_and_a_tie_joins_them(program, label, splay):
+    mesh = program.evaluate({**X_FRAMES, "aprons": 0, "leg_splay": splay, "leg_inset": 0.0,
+                             "leg_thickness": 0.03, "top_width": 1.6, "top_depth": 0.8})
+    legs, tie = _vertices(mesh, label.LEGS), _vertices(mesh, label.STRETCHERS)
+    # the bars lie in the two end planes x = +-(0.8 - 1.2 * 0.03), a leg's width thick
+    ends = 0.8 - 1.2 * 0.03
+    assert np.abs(np.abs(legs[:, 0]) - ends).max() < 0.031
+    # the feet stand on the floor at the corners, splayed outwards
+    feet = legs[legs[:, 2] < 1e-3]
+    assert feet[:, 2].min() == pytest.approx(0.0, abs=1e-6)
+    assert np.abs(feet[:, 1]).max() == pytest.approx(0.4 - 0.036 + splay, abs=0.03)
+    # every end is an X: at mid-height its bars pass the middle, at the top and floor the
+    # sides
+    middle = legs[np.abs(legs[:, 2] - np.median(legs[:, 2])) < 0.05]
+    assert np.abs(middle[:, 1]).min() < 0.05
+    # the tie runs along x through both crossings, well off the floor
+    assert np.ptp(tie[:, 0]) == pytest.approx(2 * ends, abs=0.03)
+    assert np.abs(tie[:, 1]).max() < 0.03 and tie[:, 2].min() > 0.2
+    # no bar corner pokes through the top's upper face
+    assert legs[:, 2].max() < mesh.vertices[:, 2].max() - 1e-4
+    assert loose_parts(mesh) == 0
+    # without the tie, the two ends hang from the top only
+    assert loose_parts(part_mesh(mesh, label.LEGS, label.STRETCHERS)) == 0
+    assert loose_parts(part_mesh(mesh, label.LEGS)) > 0
+
+
+def test_trestles_stand_posts_on_foot_bars(program, label):
+    mesh = program.evaluate({**TRESTLES, "aprons": 0, "leg_splay": 0.1, "leg_inset": 0.0,
+                             "leg_thickness": 0.04, "top_width": 1.6, "top_depth": 0.8})
+    legs, feet = _vertices(mesh, label.LEGS), _vertices(mesh, label.FEET)
+    # posts upright on the middle plane y = 0
+    assert np.abs(legs[:, 1]).max() <= 0.04 + 1e-6
+    # foot bars on the floor along y, wider than the top's leg positions by the splay
+    assert feet[:, 2].min() == pytest.approx(0.0, abs=1e-6)
+    assert feet[:, 2].max() == pytest.approx(0.08, abs=1e-6)
+    assert np.abs(feet[:, 1]).max() == pytest.approx(0.4 - 0.048 + 0.1, abs=1e-3)
+    assert loose_parts(mesh) == 0
+    assert drop_test(mesh)["stable"]
+
+
+def test_top_cut_halves_a_round_top_into_a_demilune_with_its_legs_under_it(program, label):
+    values = {"top_width": 1.0, "top_depth": 0.5, "top_roundness": 1.0, "leg_splay": 0.0,
+              "leg_thickness": 0.02, "aprons": 0}
+    whole = _vertices(program.evaluate(values), label.TOP)
+    mesh = program.evaluate({**values, "top_cut": 1.0})
+    top, legs = _vertices(mesh, label.TOP), _vertices(mesh, label.LEGS)
+    # the same extent, centred
+    for v in (whole, top):
+        assert v[:, 1].min() == pytest.approx(-0.25, abs=1e-3)
+        assert v[:, 1].max() == pytest.approx(0.25, abs=1e-3)
+        assert np.ptp(v[:, 0]) == pytest.approx(1.0, abs=1e-3)
+    # a straight back as wide as the top, a front that narrows as a half-ellipse would
+    back = top[top[:, 1] < -0.25 + 1e-4]
+    assert np.ptp(back[:, 0]) == pytest.approx(1.0, abs=1e-3)
+    front = top[top[:, 1] > 0.2]
+    assert np.abs(front[:, 0]).max() < 0.3
+    assert np.abs(whole[whole[:, 1] > 0.2][:, 0]).max() > 0.35
+    # the legs' tops lie under the half-ellipse x^2 / 0.5^2 + (y + 0.25)^2 / 0.5^2 < 1
+    tops = legs[legs[:, 2] > legs[:, 2].max() - 1e-3]
+    assert (np.hypot(tops[:, 0] / 0.5, (tops[:, 1] + 0.25) / 0.5) < 1.0).all()
+    assert (tops[:, 1] > -0.25).all()
+    result = drop_test(mesh)
+    assert result["loose_parts"] == 0 and result["stable"]
