@@ -24,7 +24,7 @@ Layout: z = up, the ceiling is the plane z = 0 and the lamp hangs below it. Stru
   (`shade_size`) shrink where needed so that neighbouring shades never touch each other or
   the hub; a pendant's shade hangs on the rod's axis; a flush mount's is upside down, its
   open rim inside the canopy (shrunk where needed to fit in it) and its closed end
-  `shade_height` below that (a dome shade makes a bowl);
+  FLUSH_DEPTH `shade_height` below that: low-profile (a dome shade makes a bowl);
 - bulb (not flush): a round sweep hanging from the socket's bottom inside the shade.
 The choices are Switches on `flush` (over everything) and `pendant` (over the arms), so the
 visibility rules follow from them.
@@ -62,6 +62,7 @@ DOME_TOP = 0.2          # a dome's (flat) top, per unit of its rim
 CORD_SOCKET = 0.006     # a pendant's socket is SOCKET_WIDTH times at least this radius wide
 UNCROWDED = 1.0         # the room of a pendant's shade: more than any rim
 FLUSH_FIT = 0.9         # a flush mount's rim stays within this share of the canopy's middle
+FLUSH_DEPTH = 0.5       # a flush mount's shade is this share of shade_height deep (low-profile)
 SHADE_RINGS = 10        # path points along a shade's height
 # the arch of an arm: its middle control point rises up to this share of the arm's length
 # above the arm's end (kept below the ceiling for every combination of the ranges)
@@ -208,11 +209,11 @@ def _shade(g: Graph, p: dict, end, rim):
     """A shell of half-width rim x the profile, shade_height tall. Hanging (chandelier,
     pendant): its closed top SOCKET_LENGTH / 2 under the end (the socket pierces it), its
     open rim below. Flush mount: upside down, its open rim inside the canopy, half the
-    canopy's height up, its closed end below."""
+    canopy's height up, its closed end FLUSH_DEPTH shade_height below."""
     hangs = g.named("hangs", g.switch(p["flush"], 1.0, 0.0))
     anchor = g.switch(p["flush"], end.z - SOCKET_LENGTH / 2, p["canopy_height"] * -0.5)
     rim_z = anchor - p["shade_height"] * hangs
-    top_z = anchor - p["shade_height"] * (1.0 - hangs)
+    top_z = anchor - p["shade_height"] * ((1.0 - hangs) * FLUSH_DEPTH)
     path = _vertical_path(g, end.x, rim_z, top_z, SHADE_RINGS)
     return shell(g, curve=path, profile_curve=_outline(g, p["shade_roundness"], 3),
                  scale=rim * _shade_profile(g, p), thickness=p["shade_thickness"],

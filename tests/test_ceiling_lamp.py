@@ -53,11 +53,12 @@ def _radii(points, axis_x) -> np.ndarray:
 
 def test_parameters_cover_the_lamp(lamp):
     kinds = [p.kind for p in lamp.parameters]
-    assert len(kinds) == 23
-    assert len(kinds) - kinds.count("float") == 3 and kinds.count("float") == 20
+    assert len(kinds) == 24
+    assert len(kinds) - kinds.count("float") == 4 and kinds.count("float") == 20
     names = {p.name for p in lamp.parameters}
-    assert {"lamp_style", "canopy_taper", "arm_count", "arm_length", "arm_curvature", "hub_radius", "shade_shape",
-            "shade_size", "bulb_size", "rod_length", "canopy_radius"} <= names
+    assert {"pendant", "flush", "canopy_taper", "arm_count", "arm_length", "arm_curvature",
+            "hub_radius", "shade_shape", "shade_size", "bulb_size", "rod_length",
+            "canopy_radius"} <= names
     for p in lamp.parameters:
         assert p.description and p.min <= p.default <= p.max, p.name
 
@@ -66,15 +67,16 @@ CHANDELIER_ONLY = ("arm_attach", "hub_radius", "hub_height", "arm_count", "arm_l
                    "arm_rise", "arm_curvature", "arm_thickness")
 
 
-def test_visibility_rules_are_inferred_from_the_style_and_shade_switches(lamp):
+def test_visibility_rules_are_inferred_from_the_form_and_shade_switches(lamp):
     rules = {name: None if rule is None else str(rule)
              for name, rule in lamp.visibility().items()}
     assert rules.pop("shade_top") == "shade_shape == 0 or shade_shape == 1 or shade_shape == 3"
     assert rules.pop("shade_flare") == "shade_shape == 1"
     for name in CHANDELIER_ONLY:
-        assert rules.pop(name) == "lamp_style == 0", name
-    for name in ("rod_length", "rod_thickness", "bulb_size"):  # no rod and no bulb when flush
-        assert rules.pop(name) == "lamp_style == 0 or lamp_style == 1", name
+        assert rules.pop(name) == "not flush and not pendant", name
+    # a flush mount has no rod and no bulb, and is no pendant
+    for name in ("pendant", "rod_length", "rod_thickness", "bulb_size"):
+        assert rules.pop(name) == "not flush", name
     assert set(rules.values()) == {None}
 
 
@@ -83,8 +85,9 @@ def test_visibility_rules_are_inferred_from_the_style_and_shade_switches(lamp):
     ({"shade_shape": 0}, {"shade_flare": 1.0}),
     ({"shade_shape": 3}, {"shade_flare": 0.0}),
     ({"shade_shape": 4}, {"shade_top": 0.8}),
-    ({"lamp_style": 1}, {"arm_count": 8, "arm_length": 0.45, "hub_radius": 0.08}),
-    ({"lamp_style": 2}, {"rod_length": 0.9, "rod_thickness": 0.003, "bulb_size": 0.04}),
+    ({"pendant": 1}, {"arm_count": 8, "arm_length": 0.45, "hub_radius": 0.08}),
+    ({"flush": 1}, {"rod_length": 0.9, "rod_thickness": 0.003, "bulb_size": 0.04,
+                    "pendant": 1}),
 ])
 def test_invisible_parameters_leave_the_mesh_unchanged(lamp, hidden, change):
     assert _digest(lamp.evaluate(hidden)) == _digest(lamp.evaluate({**hidden, **change}))
@@ -124,10 +127,10 @@ def test_every_part_carries_its_own_label(lamp, label):
     mesh = lamp.evaluate({})
     assert set(mesh.metadata["part"]) == {label.CANOPY, label.ROD, label.HUB, label.ARMS,
                                           label.SOCKETS, label.SHADES, label.BULBS}
-    pendant = lamp.evaluate({"lamp_style": label.PENDANT})
+    pendant = lamp.evaluate({"pendant": 1})
     assert set(pendant.metadata["part"]) == {label.CANOPY, label.ROD, label.SOCKETS,
                                              label.SHADES, label.BULBS}
-    flush = lamp.evaluate({"lamp_style": label.FLUSH})
+    flush = lamp.evaluate({"flush": 1})
     assert set(flush.metadata["part"]) == {label.CANOPY, label.SHADES}
 
 
@@ -247,7 +250,7 @@ def test_random_lamps_are_whole_and_finite(lamp):
 # -- the other forms: a pendant, a flush mount -----------------------------------------------------
 
 def test_a_pendant_hangs_one_shade_from_the_rods_end(lamp, label):
-    values = {"lamp_style": label.PENDANT, "rod_length": 0.3, "canopy_height": 0.04,
+    values = {"pendant": 1, "rod_length": 0.3, "canopy_height": 0.04,
               "shade_size": 0.16, "shade_height": 0.2, "shade_shape": label.CYLINDER}
     mesh = lamp.evaluate(values)
     assert len(_only(mesh, label.SHADES).split(only_watertight=False)) == 1
@@ -266,7 +269,7 @@ def test_a_pendant_hangs_one_shade_from_the_rods_end(lamp, label):
 
 
 def test_a_pendant_can_hang_a_box_from_a_thin_cord(lamp, label):
-    values = {"lamp_style": label.PENDANT, "rod_thickness": 0.003, "shade_shape": label.CYLINDER,
+    values = {"pendant": 1, "rod_thickness": 0.003, "shade_shape": label.CYLINDER,
               "shade_roundness": 0.0, "shade_size": 0.1, "shade_height": 0.2}
     mesh = lamp.evaluate(values)
     shade = _vertices(mesh, label.SHADES)
@@ -283,21 +286,22 @@ def test_a_pendant_can_hang_a_box_from_a_thin_cord(lamp, label):
 
 
 def test_a_flush_mount_is_a_shade_upside_down_under_the_canopy(lamp, label):
-    values = {"lamp_style": label.FLUSH, "shade_shape": label.DOME, "canopy_radius": 0.14,
+    values = {"flush": 1, "shade_shape": label.DOME, "canopy_radius": 0.14,
               "canopy_height": 0.02, "canopy_taper": 0.0, "shade_size": 0.11,
-              "shade_height": 0.06}
+              "shade_height": 0.12}
     mesh = lamp.evaluate(values)
     assert loose_parts(mesh) == 0
     dome = _vertices(mesh, label.SHADES)
-    # its open rim half the canopy's height up into the canopy, its bottom shade_height below
+    # its open rim half the canopy's height up into the canopy, its bottom half shade_height
+    # below
     assert dome[:, 2].max() == pytest.approx(-0.01, abs=1e-3)
     assert dome[:, 2].min() == pytest.approx(-0.07, abs=1e-3)
     top = dome[dome[:, 2] > -0.012]
     bottom = dome[dome[:, 2] < -0.068]
     assert _radii(top, 0.0).max() == pytest.approx(0.11, abs=1e-3)      # widest at the rim
     assert _radii(bottom, 0.0).max() == pytest.approx(0.022, abs=2e-3)  # a small flat bottom
-    deeper = _vertices(lamp.evaluate({**values, "shade_height": 0.12}), label.SHADES)
-    assert deeper[:, 2].min() == pytest.approx(-0.13, abs=1e-3)
+    deeper = _vertices(lamp.evaluate({**values, "shade_height": 0.2}), label.SHADES)
+    assert deeper[:, 2].min() == pytest.approx(-0.11, abs=1e-3)
 
 
 def test_canopy_taper_turns_a_cap_into_a_flat_plate(lamp, label):
