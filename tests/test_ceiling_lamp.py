@@ -53,20 +53,30 @@ def _radii(points, axis_x) -> np.ndarray:
 
 def test_parameters_cover_the_lamp(lamp):
     kinds = [p.kind for p in lamp.parameters]
-    assert len(kinds) == 21
-    assert len(kinds) - kinds.count("float") == 2 and kinds.count("float") == 19
+    assert len(kinds) == 24
+    assert len(kinds) - kinds.count("float") == 4 and kinds.count("float") == 20
     names = {p.name for p in lamp.parameters}
-    assert {"arm_count", "arm_length", "arm_curvature", "hub_radius", "shade_shape",
-            "shade_size", "bulb_size", "rod_length", "canopy_radius"} <= names
+    assert {"pendant", "flush", "canopy_taper", "arm_count", "arm_length", "arm_curvature",
+            "hub_radius", "shade_shape", "shade_size", "bulb_size", "rod_length",
+            "canopy_radius"} <= names
     for p in lamp.parameters:
         assert p.description and p.min <= p.default <= p.max, p.name
 
 
-def test_visibility_rules_are_inferred_from_the_shade_switch(lamp):
+CHANDELIER_ONLY = ("arm_attach", "hub_radius", "hub_height", "arm_count", "arm_length",
+                   "arm_rise", "arm_curvature", "arm_thickness")
+
+
+def test_visibility_rules_are_inferred_from_the_form_and_shade_switches(lamp):
     rules = {name: None if rule is None else str(rule)
              for name, rule in lamp.visibility().items()}
     assert rules.pop("shade_top") == "shade_shape == 0 or shade_shape == 1 or shade_shape == 3"
     assert rules.pop("shade_flare") == "shade_shape == 1"
+    for name in CHANDELIER_ONLY:
+        assert rules.pop(name) == "not flush and not pendant", name
+    # a flush mount has no rod and no bulb, and is no pendant
+    for name in ("pendant", "rod_length", "rod_thickness", "bulb_size"):
+        assert rules.pop(name) == "not flush", name
     assert set(rules.values()) == {None}
 
 
@@ -74,6 +84,10 @@ def test_visibility_rules_are_inferred_from_the_shade_switch(lamp):
     ({"shade_shape": 2}, {"shade_top": 0.8}),
     ({"shade_shape": 0}, {"shade_flare": 1.0}),
     ({"shade_shape": 3}, {"shade_flare": 0.0}),
+    ({"shade_shape": 4}, {"shade_top": 0.8}),
+    ({"pendant": 1}, {"arm_count": 8, "arm_length": 0.45, "hub_radius": 0.08}),
+    ({"flush": 1}, {"rod_length": 0.9, "rod_thickness": 0.003, "bulb_size": 0.04,
+                    "pendant": 1}),
 ])
 def test_invisible_parameters_leave_the_mesh_unchanged(lamp, hidden, change):
     assert _digest(lamp.evaluate(hidden)) == _digest(lamp.evaluate({**hidden, **change}))
@@ -113,6 +127,11 @@ def test_every_part_carries_its_own_label(lamp, label):
     mesh = lamp.evaluate({})
     assert set(mesh.metadata["part"]) == {label.CANOPY, label.ROD, label.HUB, label.ARMS,
                                           label.SOCKETS, label.SHADES, label.BULBS}
+    pendant = lamp.evaluate({"pendant": 1})
+    assert set(pendant.metadata["part"]) == {label.CANOPY, label.ROD, label.SOCKETS,
+                                             label.SHADES, label.BULBS}
+    flush = lamp.evaluate({"flush": 1})
+    assert set(flush.metadata["part"]) == {label.CANOPY, label.SHADES}
 
 
 # -- structural rules ------------------------------------------------------------------------------
@@ -180,7 +199,7 @@ def test_crowded_shades_shrink_so_that_none_touch(lamp, label, roundness):
     assert np.hypot(*spacious[:, :2].T).max() > np.hypot(*shades[:, :2].T).max() + 0.05
 
 
-@pytest.mark.parametrize("shape", [0, 1, 2, 3])
+@pytest.mark.parametrize("shape", [0, 1, 2, 3, 4])
 def test_shade_shapes_follow_their_profiles(lamp, label, shape):
     values = {"arm_count": 2, "shade_shape": shape, "shade_size": 0.1, "shade_top": 0.4,
               "shade_flare": 1.0, "shade_height": 0.2, "hub_radius": 0.05, "arm_length": 0.35}
@@ -200,8 +219,11 @@ def test_shade_shapes_follow_their_profiles(lamp, label, shape):
         assert rim == pytest.approx(0.1, abs=3e-3) and middle < 0.06
     elif shape == 2:  # cylinder
         assert rim == pytest.approx(0.1, abs=3e-3) and top == pytest.approx(0.1, abs=3e-3)
-    else:             # globe: widest in the middle, open at both ends
+    elif shape == 3:  # globe: widest in the middle, open at both ends
         assert middle == pytest.approx(0.1, abs=3e-3) and rim < 0.05 and top < 0.06
+    else:             # dome: a half ellipsoid from the rim up to a small flat top
+        assert rim == pytest.approx(0.1, abs=3e-3) and top == pytest.approx(0.02, abs=3e-3)
+        assert middle == pytest.approx(0.1 * np.sqrt(1 - 0.25 * 0.96), abs=5e-3)
 
 
 def test_bulbs_hang_from_their_sockets_inside_the_shades(lamp, label):
@@ -223,3 +245,83 @@ def test_random_lamps_are_whole_and_finite(lamp):
         mesh = lamp.evaluate(values)
         assert np.isfinite(mesh.vertices).all(), values
         assert loose_parts(mesh) == 0, values
+
+
+# -- the other forms: a pendant, a flush mount -----------------------------------------------------
+
+def test_a_pendant_hangs_one_shade_from_the_rods_end(lamp, label):
+    values = {"pendant": 1, "rod_length": 0.3, "canopy_height": 0.04,
+              "shade_size": 0.16, "shade_height": 0.2, "shade_shape": label.CYLINDER}
+    mesh = lamp.evaluate(values)
+    assert len(_only(mesh, label.SHADES).split(only_watertight=False)) == 1
+    shade, rod = _vertices(mesh, label.SHADES), _vertices(mesh, label.ROD)
+    assert rod[:, 2].min() == pytest.approx(-0.34, abs=1e-5)   # below the canopy by rod_length
+    assert np.abs(shade[:, :2].mean(axis=0)).max() < 1e-6      # on the rod's axis
+    assert shade[:, 2].max() == pytest.approx(-0.34 - 0.0175, abs=1e-5)  # under the socket
+    assert shade[:, 2].min() == pytest.approx(-0.34 - 0.0175 - 0.2, abs=1e-5)
+    assert _radii(shade, 0.0).max() == pytest.approx(0.16, abs=1e-3)  # not crowded
+    assert loose_parts(mesh) == 0
+    # the rod (cord) carries it: without the rod the rest falls off the canopy
+    assert loose_parts(_only(mesh, label.CANOPY, label.SOCKETS, label.SHADES,
+                             label.BULBS)) > 0
+    longer = _vertices(lamp.evaluate({**values, "rod_length": 0.6}), label.SHADES)
+    assert shade[:, 2].min() - longer[:, 2].min() == pytest.approx(0.3, abs=1e-5)
+
+
+def test_a_pendant_can_hang_a_box_from_a_thin_cord(lamp, label):
+    values = {"pendant": 1, "rod_thickness": 0.003, "shade_shape": label.CYLINDER,
+              "shade_roundness": 0.0, "shade_size": 0.1, "shade_height": 0.2}
+    mesh = lamp.evaluate(values)
+    shade = _vertices(mesh, label.SHADES)
+    # a box: a square cross-section, the same at the rim and at the top
+    for part in (shade[shade[:, 2] < shade[:, 2].min() + 0.01],
+                 shade[shade[:, 2] > shade[:, 2].max() - 0.01]):
+        assert np.abs(part[:, :2]).max(axis=0) == pytest.approx([0.1, 0.1], abs=1e-4)
+        assert _radii(part, 0.0).max() == pytest.approx(0.1 * np.sqrt(2), abs=1e-4)
+    rod, socket = _vertices(mesh, label.ROD), _vertices(mesh, label.SOCKETS)
+    assert _radii(rod, 0.0).max() == pytest.approx(0.003, abs=1e-5)
+    # the cord's socket keeps a bulb holder's width
+    assert _radii(socket, 0.0).max() == pytest.approx(1.8 * 0.006, abs=1e-4)
+    assert loose_parts(mesh) == 0
+
+
+def test_a_flush_mount_is_a_shade_upside_down_under_the_canopy(lamp, label):
+    values = {"flush": 1, "shade_shape": label.DOME, "canopy_radius": 0.14,
+              "canopy_height": 0.02, "canopy_taper": 0.0, "shade_size": 0.11,
+              "shade_height": 0.12}
+    mesh = lamp.evaluate(values)
+    assert loose_parts(mesh) == 0
+    dome = _vertices(mesh, label.SHADES)
+    # its open rim half the canopy's height up into the canopy, its bottom half shade_height
+    # below
+    assert dome[:, 2].max() == pytest.approx(-0.01, abs=1e-3)
+    assert dome[:, 2].min() == pytest.approx(-0.07, abs=1e-3)
+    top = dome[dome[:, 2] > -0.012]
+    bottom = dome[dome[:, 2] < -0.068]
+    assert _radii(top, 0.0).max() == pytest.approx(0.11, abs=1e-3)      # widest at the rim
+    assert _radii(bottom, 0.0).max() == pytest.approx(0.022, abs=2e-3)  # a small flat bottom
+    deeper = _vertices(lamp.evaluate({**values, "shade_height": 0.2}), label.SHADES)
+    assert deeper[:, 2].min() == pytest.approx(-0.11, abs=1e-3)
+
+
+def test_canopy_taper_turns_a_cap_into_a_flat_plate(lamp, label):
+    def widths(taper):
+        canopy = _vertices(lamp.evaluate({"canopy_taper": taper, "canopy_radius": 0.1}),
+                           label.CANOPY)
+        top, bottom = canopy[canopy[:, 2] > -1e-6], canopy[canopy[:, 2] < canopy[:, 2].min() + 1e-6]
+        return _radii(top, 0.0).max(), _radii(bottom, 0.0).max()
+
+    assert widths(0.0) == pytest.approx((0.1, 0.1), abs=1e-3)
+    assert widths(0.6) == pytest.approx((0.1, 0.04), abs=1e-3)
+
+
+def test_on_a_short_rod_the_hub_stays_low_enough_for_the_arms(lamp, label):
+    values = {"rod_length": 0.05, "canopy_height": 0.04, "arm_attach": 0.5, "arm_rise": 0.08,
+              "arm_curvature": 1.0, "arm_length": 0.45, "arm_thickness": 0.012}
+    mesh = lamp.evaluate(values)
+    assert loose_parts(mesh) == 0
+    below = mesh.vertices[np.unique(mesh.faces[~_mask(mesh, [label.CANOPY, label.ROD])])]
+    assert below[:, 2].max() < -0.02  # under the canopy's middle
+    # on a long rod the same arms sit where the rod is sampled
+    hub = _vertices(lamp.evaluate({**values, "rod_length": 0.9}), label.HUB)
+    assert hub[:, 2].mean() == pytest.approx(-0.02 + 0.5 * (-0.94 + 0.02), abs=1e-5)
