@@ -1,23 +1,36 @@
-"""The cabinet program (33 parameters: 8 discrete, 25 continuous): the paper's example of the
+"""The cabinet program (37 parameters: 11 discrete, 26 continuous): the paper's example of the
 blocks carried to a new domain, a cabinet whose drawers follow the frame's profile and whose
-handles stay attached (its "structural integrity discussion").
+handles stay attached (its "structural integrity discussion"), grown to the common real forms:
+chests of drawers, cupboards, bookcases and open shelving, night stands, low wide TV cabinets
+and sideboards, wall cabinets.
 
 Layout: x = width, y = depth (the fronts at -y), z = up. Structure (every part touches the
 rest for every parameter combination):
-- body: the right side is a CurveQuadraticCartesian from the bottom corner to the top corner
-  (tapered by `top_width`, bowed by `side_curvature`), the left side its mirror image; a Loft
-  between the two sides is the front outline, swept back by the depth (StyleSolidify);
-- fronts: rows of drawers above rows of doors, built in a repeat zone (one pass per row, a
-  nested one per column). Each front is a Loft between the sides moved in by the frame, over
-  its row's share of their length, so its outer edges follow the profile at every height;
-  it stands out of the body by `front_thickness` and is sunk a little into it. The open
-  drawer slides out along -y and a box joins it back into the body;
+- sides: the right side is a CurveQuadraticCartesian from the bottom corner to the top corner
+  (tapered by `top_width`, bowed by `side_curvature`), the left side its mirror image; the
+  fronts' sides are these moved in by the frame (`frame_width`, also the boards' thickness).
+  Rows share the sides' length: door rows at the bottom, drawer rows above, open rows on top;
+  doors and open rows weigh `door_height`, drawers 1;
+- body: below the open rows (all of it when there are none) a Loft between the two sides,
+  swept back by the depth (StyleSolidify); around the open rows the two side boards, a top
+  rail and a back wall, Lofts between a side and its inner side, given thickness the same way;
+- fronts: built in a repeat zone (one pass per row, a nested one per column). Each front is a
+  Loft between the inner sides over its row's share of their length, so its outer edges
+  follow the profile at every height; it stands out of the body by `front_thickness` and is
+  sunk a little into it. A front is a slab, or (`front_style`) a frame of `panel_border`
+  (rails: Lofts over a band of the row; stiles: Lofts of no span, widened by a negative
+  inset) around a panel set back by half the thickness, or around a thin glass pane at the
+  frame's back. The open drawer slides out along -y and a box joins it back into the body;
+- open rows: `shelf_count` boards evenly across each, and one between two open rows, from
+  the front to the back wall, sunk into the side boards (a nested repeat zone);
 - handles: a CurveHandle (a bar attached at both ends) or a knob, placed by SampleCurveArray
-  on the row's line across its fronts (cell centres) on the front's face, so they move with
-  their drawer; door handles are upright, near the door's inner edge;
+  on the row's line across its fronts (cell centres) on the front's face (a framed front's
+  panel face: on the frame they sink into it), so they move with their drawer; door handles
+  are upright, near the door's inner edge;
 - top board (optional, overhanging at the front and sides), a plinth or four legs; the body
   stands on them, and the cabinet is grounded so that its lowest point lies on z = 0.
-Labels: body 1, top 2, drawers 3, doors 4, handles 5, plinth 6, legs 7.
+Labels: body 1 (with the back wall and shelves), top 2, drawers 3, doors 4, handles 5,
+plinth 6, legs 7.
 """
 
 from __future__ import annotations
