@@ -57,6 +57,7 @@ from geocode.nodes import (
 BODY, TOP, DRAWERS, DOORS, HANDLES, PLINTH, LEGS = range(1, 8)
 
 SIDE_RESOLUTION = 16   # segments of each side curve (and rows of the body's loft)
+OPEN_RESOLUTION = 8    # rows of the side boards and the back wall around the open rows
 FRONT_ROWS = 6         # loft rows of a front: enough to follow a bowed side
 SINK = 0.004           # how far fronts, boxes, boards and handles reach into what holds them
 PANEL_RECESS = 0.5     # a framed panel lies this share of the front's thickness behind its frame
@@ -91,7 +92,7 @@ def _parameters(g: Graph) -> dict:
     add("front_style", "int", 0, 0, 2, "fronts: 0 flat slab, 1 panel in a frame, 2 glass pane")
     add("panel_border", "float", 0.04, 0.015, 0.08, "width of the frame around a panel")
     add("open_drawer", "int", 0, 0, 4, "the drawer row pulled out, from the top; 0 none")
-    add("drawer_open", "float", 0.4, 0.1, 0.7, "how far it is pulled out (share of depth)")
+    add("drawer_open", "float", 0.4, 0.1, 0.55, "how far it is pulled out (share of depth)")
     # handles
     add("handle_style", "int", 1, 0, 2, "handles: 0 none, 1 bar, 2 knob")
     add("handle_length", "float", 0.4, 0.15, 0.7, "bar length / front width (doors: height)")
@@ -190,11 +191,11 @@ def _body(c: _Cabinet):
     closed = _band(c, c.left, c.right, 0.0, g.when(c.has_open, c.open_start, 1.0), depth)
     top_rail = 1.0 - c.along(board)
     shell = g.join([
-        _band(c, c.left, c.inner_left, c.open_start, 1.0, depth),
-        _band(c, c.inner_right, c.right, c.open_start, 1.0, depth),
+        _band(c, c.left, c.inner_left, c.open_start, 1.0, depth, rows=OPEN_RESOLUTION),
+        _band(c, c.inner_right, c.right, c.open_start, 1.0, depth, rows=OPEN_RESOLUTION),
         _band(c, c.inner_left, c.inner_right, top_rail, 1.0, depth, rows=1),
         _band(c, c.inner_left, c.inner_right, c.open_start, top_rail, board + SINK,
-              back=depth - board),
+              back=depth - board, rows=OPEN_RESOLUTION),
     ])
     return g.label(g.join([closed, g.when(c.has_open, shell)]), BODY)
 
@@ -233,11 +234,11 @@ class _Row:
         self.recess = (p["front_thickness"] * g.index_switch(style, [0.0, PANEL_RECESS, 1.0])
                        - g.index_switch(style, [0.0, 0.0, PANE]))
 
-    def _loft(self, low, high, span_start, span_end, inset=None):
+    def _loft(self, low, high, span_start, span_end, inset=None, rows=FRONT_ROWS):
         inset = 0.5 * self.p["gap"] if inset is None else inset
         return loft(self.g, curve_a=self.c.inner_left, curve_b=self.c.inner_right, start=low,
                     end=high, span_start=span_start, span_end=span_end,
-                    inset=inset, rows=FRONT_ROWS)["Mesh"]
+                    inset=inset, rows=rows)["Mesh"]
 
     def _solid(self, surface, recess):
         """A surface moved to the front's face (less `recess`) and given the depth from
@@ -259,8 +260,8 @@ class _Row:
         stiles = [g.transform(self._loft(self.low, self.high, span, span, -0.5 * border),
                               translation=g.vec(shift, 0, 0))
                   for span, shift in ((span_start, offset), (span_end, -offset))]
-        rails = [self._loft(self.low, self.low + rise, span_start, span_end, inner),
-                 self._loft(self.high - rise, self.high, span_start, span_end, inner)]
+        rails = [self._loft(self.low, self.low + rise, span_start, span_end, inner, rows=1),
+                 self._loft(self.high - rise, self.high, span_start, span_end, inner, rows=1)]
         panel = self._loft(self.low + rise, self.high - rise, span_start, span_end, inner)
         return g.join([self._solid(g.join([*stiles, *rails]), 0.0),
                        self._solid(panel, self.recess)])
