@@ -52,8 +52,8 @@ def _body_half_width(mesh, label, z):
 
 def test_parameter_space(cabinet):
     kinds = [p.kind for p in cabinet.parameters]
-    assert len(cabinet.parameters) == 33
-    assert kinds.count("float") == 25 and len(kinds) - kinds.count("float") == 8
+    assert len(cabinet.parameters) == 37
+    assert kinds.count("float") == 26 and len(kinds) - kinds.count("float") == 11
     for p in cabinet.parameters:
         assert p.description and p.min <= p.default <= p.max, p.name
 
@@ -70,7 +70,10 @@ def test_visibility_rules_are_inferred_from_the_switches(cabinet):
     assert rules["plinth_inset"] == "base_style == 1"
     assert rules["leg_splay"] == "base_style == 2"
     assert rules["base_height"] == "base_style == 1 or base_style == 2"
-    assert rules["door_height"] == "door_rows > 0"
+    assert rules["door_height"] == "door_rows > 0 or open_rows > 0"
+    assert rules["shelf_count"] == "open_rows > 0"
+    assert rules["panel_border"] == "front_style > 0"
+    assert rules["front_thickness"] is None and rules["front_style"] is None
     assert rules["drawer_columns"] == "drawer_rows > 0"
     assert rules["drawer_open"] == "drawer_rows > 0 and open_drawer > 0"
 
@@ -82,7 +85,9 @@ def test_visibility_rules_are_inferred_from_the_switches(cabinet):
     ({"top_board": 0}, {"top_overhang": 0.06, "top_thickness": 0.05}),
     ({"base_style": 1}, {"leg_splay": 0.05, "leg_thickness": 0.04}),
     ({"door_rows": 0}, {"door_height": 2.5, "door_columns": 1}),
-    ({"open_drawer": 0}, {"drawer_open": 0.7}),
+    ({"open_drawer": 0}, {"drawer_open": 0.55}),
+    ({"open_rows": 0}, {"shelf_count": 3}),
+    ({"front_style": 0}, {"panel_border": 0.08}),
 ])
 def test_invisible_parameters_leave_the_mesh_unchanged(cabinet, hidden, change):
     before = cabinet.evaluate(hidden)
@@ -155,7 +160,7 @@ def test_handles_stay_attached_when_a_drawer_is_pulled_out(cabinet, label, style
     values = {**PLAIN, "open_drawer": 1, "handle_style": style, "drawer_columns": 1,
               "depth": 0.5}
     closed = cabinet.evaluate({**values, "drawer_open": 0.1})
-    opened = cabinet.evaluate({**values, "drawer_open": 0.7})
+    opened = cabinet.evaluate({**values, "drawer_open": 0.55})
     top = closed.vertices[:, 2].max()
 
     def top_row(mesh, *labels):
@@ -164,7 +169,7 @@ def test_handles_stay_attached_when_a_drawer_is_pulled_out(cabinet, label, style
 
     for part in (label.DRAWERS, label.HANDLES):  # front and handle move out together
         moved = top_row(opened, part)[:, 1].min() - top_row(closed, part)[:, 1].min()
-        assert moved == pytest.approx(-0.6 * 0.5, abs=1e-4), part
+        assert moved == pytest.approx(-0.45 * 0.5, abs=1e-4), part
     # the other rows stay shut
     lower = _only(opened, label.DRAWERS).vertices
     assert lower[lower[:, 2] < top - 0.3][:, 1].min() > -0.25 - 0.021
@@ -223,7 +228,8 @@ def test_random_cabinets_satisfy_the_recipe_and_have_fronts(cabinet):
     recipe, rng = cabinet.recipe(), np.random.default_rng(0)
     for _ in range(50):
         values = cabinet.random_values(rng)
-        assert recipe.satisfies(values) and values["drawer_rows"] + values["door_rows"] >= 1, values
+        rows = values["drawer_rows"] + values["door_rows"] + values["open_rows"]
+        assert recipe.satisfies(values) and rows >= 1, values
         assert all(p.min <= values[p.name] <= p.max for p in recipe.parameters), values
 
 
@@ -243,7 +249,8 @@ def test_every_parameter_changes_the_mesh_somewhere_in_its_range(cabinet):
                 "leg_taper": {"base_style": 2}, "leg_thickness": {"base_style": 2},
                 "leg_roundness": {"base_style": 2}, "plinth_inset": {"base_style": 1},
                 "base_height": {"base_style": 1}, "top_overhang": {"top_board": 1},
-                "top_thickness": {"top_board": 1}, "top_bevel": {"top_board": 1}}
+                "top_thickness": {"top_board": 1}, "top_bevel": {"top_board": 1},
+                "shelf_count": {"open_rows": 1}, "panel_border": {"front_style": 1}}
     for p in cabinet.parameters:
         values = {**base, **settings.get(p.name, {})}
         middle = (p.min + p.max) / 2 if p.kind == "float" else float(round((p.min + p.max) / 2))
@@ -251,3 +258,81 @@ def test_every_parameter_changes_the_mesh_somewhere_in_its_range(cabinet):
                   for value in (p.min, middle, p.max)]
         assert any(a.vertices.shape != b.vertices.shape or not np.allclose(a.vertices, b.vertices)
                    for a, b in zip(meshes, meshes[1:], strict=False)), p.name
+
+
+# -- open rows, framed fronts, proportions ------------------------------------------------------
+
+OPEN = {**PLAIN, "drawer_rows": 1, "door_rows": 1, "drawer_columns": 1, "door_columns": 1,
+        "door_height": 2.0, "side_curvature": 0.0, "top_width": 1.0, "depth": 0.45,
+        "frame_width": 0.03, "handle_style": 0}
+
+
+def _first_hit_y(mesh, x, z):
+    """The y of the first surface a ray along +y from the front meets at (x, z): the
+    smallest y where the line meets a triangle (barycentric test in the xz-plane)."""
+    a, b, c = (mesh.vertices[mesh.faces[:, i]] for i in range(3))
+    ab, ac, ap = b - a, c - a, np.array([x, 0.0, z]) - a
+    det = ab[:, 0] * ac[:, 2] - ab[:, 2] * ac[:, 0]
+    ok = np.abs(det) > 1e-12
+    det = np.where(ok, det, 1.0)
+    u = (ap[:, 0] * ac[:, 2] - ap[:, 2] * ac[:, 0]) / det
+    v = (ab[:, 0] * ap[:, 2] - ab[:, 2] * ap[:, 0]) / det
+    inside = ok & (u >= 0) & (v >= 0) & (u + v <= 1)
+    return (a[:, 1] + u * ab[:, 1] + v * ac[:, 1])[inside].min()
+
+
+def test_an_open_row_shows_the_back_wall_behind_its_shelves(cabinet, label):
+    closed = cabinet.evaluate({**OPEN, "open_rows": 0})
+    opened = cabinet.evaluate({**OPEN, "open_rows": 1, "shelf_count": 0})
+    height = closed.vertices[:, 2].max()
+    # the open row is on top, as tall as the door: the rows share the height 2 : 1 : 2
+    z = height - 0.03 - (height - 0.06) * 0.2
+    assert _first_hit_y(closed, 0.1, z) == pytest.approx(-0.245, abs=1e-4)  # a drawer
+    assert _first_hit_y(opened, 0.1, z) == pytest.approx(0.225 - 0.03, abs=1e-4)  # the back
+    assert _first_hit_y(opened, 0.1, 0.2) < -0.225  # the door below stays
+    assert set(opened.metadata["part"]) == {label.BODY, label.DRAWERS, label.DOORS}
+    assert loose_parts(opened) == 0
+
+
+def test_shelves_are_boards_across_the_open_rows(cabinet, label):
+    def boards(rows, shelves):
+        mesh = cabinet.evaluate({**OPEN, "drawer_rows": 0, "door_rows": 0, "open_rows": rows,
+                                 "shelf_count": shelves})
+        assert loose_parts(mesh) == 0
+        return len(_pieces(mesh, label.BODY))
+
+    assert boards(1, 3) - boards(1, 0) == 3
+    assert boards(2, 3) - boards(2, 0) == 6
+    assert boards(2, 0) - boards(1, 0) == 1  # the board between two open rows
+    # a shelf reaches from the front to the back wall, between the sides
+    mesh = cabinet.evaluate({**OPEN, "drawer_rows": 0, "door_rows": 0, "open_rows": 1,
+                             "shelf_count": 1, "top_board": 0})
+    middle = mesh.vertices[:, 2].max() / 2
+    assert _first_hit_y(mesh, 0.1, middle) == pytest.approx(-0.225, abs=1e-4)
+
+
+@pytest.mark.parametrize("style, recess", [(1, 0.5 * 0.03), (2, 0.03 - 0.004)])
+def test_framed_fronts_set_their_panel_back_and_keep_their_handles(cabinet, label, style,
+                                                                   recess):
+    values = {**PLAIN, "front_thickness": 0.03, "front_style": style, "panel_border": 0.05,
+              "handle_style": 2, "drawer_columns": 1, "door_columns": 1}
+    slab = cabinet.evaluate({**values, "front_style": 0})
+    framed = cabinet.evaluate(values)
+    face = -0.225 - 0.03
+    for mesh, depths in ((slab, {face}), (framed, {face, face + recess})):
+        fronts = _only(mesh, label.DRAWERS, label.DOORS).vertices
+        seen = set(np.round(fronts[fronts[:, 1] < -0.225 - 1e-4, 1], 5))
+        assert seen == {round(d, 5) for d in depths}
+        assert loose_parts(mesh) == 0
+    # the panel's face lies inside the frame: the border shows at the door's edge
+    door = _only(framed, label.DOORS).vertices
+    inner = door[np.isclose(door[:, 1], face + recess)]
+    outer = door[np.isclose(door[:, 1], face)]
+    assert np.abs(inner[:, 0]).max() == pytest.approx(np.abs(outer[:, 0]).max() - 0.05, abs=1e-4)
+
+
+def test_wide_low_and_tall_narrow_proportions_are_reachable(cabinet):
+    bare = {**PLAIN, "top_board": 0, "base_style": 0, "side_curvature": 0.0, "top_width": 1.0}
+    wide = cabinet.evaluate({**bare, "width": 2.0, "height": 0.5}).extents
+    tall = cabinet.evaluate({**bare, "width": 0.45, "height": 1.6}).extents
+    assert wide[0] / wide[2] > 3.5 and tall[0] / tall[2] < 0.35
