@@ -30,6 +30,7 @@ PALETTE = np.array([
     (0.90, 0.75, 0.35), (0.65, 0.50, 0.80), (0.40, 0.75, 0.75), (0.85, 0.55, 0.70),
 ])
 VIEW = Camera("gallery", azimuth=35.0, elevation=25.0)
+SHARP_ANGLE = math.radians(30)   # edges bent further than this are shaded sharp
 
 
 class ShadedRenderer(RenderScene):
@@ -69,6 +70,8 @@ class ShadedRenderer(RenderScene):
     def set_mesh(self, mesh, color=None) -> None:
         """`mesh`'s faces coloured by part label, or all in `color` (RGB, 0-1) if given."""
         set_mesh_data(self.mesh, mesh.vertices, mesh.faces)
+        # smooth across gentle bends only: a box shaded smooth looks like a pillow
+        self.mesh.set_sharp_from_angle(angle=SHARP_ANGLE)
         parts = np.asarray(mesh.metadata.get("part", np.zeros(len(mesh.faces))), dtype=int)
         rgba = np.ones((len(mesh.faces), 4), dtype=np.float32)
         rgba[:, :3] = PALETTE[parts % len(PALETTE)] if color is None else color
