@@ -1,4 +1,4 @@
-"""The chair program (66 parameters: 15 discrete, 51 continuous).
+"""The chair program (67 parameters: 16 discrete, 51 continuous).
 
 Layout: x = width, y = depth (the backrest at +y), z = up; a 0.5 x 0.5 seat before the
 overall scale. Structure (every part touches the rest for every parameter combination):
@@ -17,9 +17,9 @@ overall scale. Structure (every part touches the rest for every parameter combin
   path swept with a panel profile) span the two frames; a MeshTopRail caps them;
 - armrests: from a point sampled on the frame forward, either a straight bar
   (MeshStraightFrame) with an optional support (MeshFrameFixedBottom) down into the seat
-  and a pad, or a loop (MeshQuadraticPolarFrame) from the frame down into the seat, or a
-  side panel (a vertical MeshStraightFrame slab) through the seat's side, from the floor
-  or the seat up to the back attachment's height;
+  and a pad, or a loop (MeshQuadraticPolarFrame) from the frame down into the seat; and
+  optional side panels (a vertical MeshStraightFrame slab) through the seat's sides, from
+  the floor or the seat up to the arms' back attachment's height;
 - the chair is scaled per axis and grounded so that its lowest point lies on z = 0.
 Selectors reach the geometry only through Switch / Index Switch nodes, so visibility rules
 are inferred from the graph. In Blender's node editor each piece is a node group: Seat,
@@ -53,7 +53,7 @@ from geocode.nodes import (
 
 # labels (segmentation)
 (SEAT, CUSHION, LEGS, BACK_FRAME, CROSS_RAILS, VERTICAL_RAILS, TOP_RAIL, BACK_PANEL,
- ARMRESTS, ARM_SUPPORTS, ARM_PADS, MONOLEG, TENT_LEGS, CASTERS, ARM_PANELS) = range(1, 16)
+ ARMRESTS, ARM_SUPPORTS, ARM_PADS, MONOLEG, TENT_LEGS, CASTERS, SIDE_PANELS) = range(1, 16)
 
 SEAT_SIZE = 0.5          # width and depth of the seat before the overall scale
 LEG_INSET = 1.2          # legs sit this many radii inside the seat's corner
@@ -129,7 +129,7 @@ def _parameters(g: Graph) -> dict:
     add("top_rail_roundness", "float", 0.0, 0.0, 1.0, "top rail profile: square to round")
     add("top_rail_fill", "float", 0.0, 0.0, 0.5, "swelling of the top rail's middle")
     # armrests
-    add("armrest_style", "int", 0, 0, 3, "armrests: 0 none, 1 straight, 2 loop, 3 side panel")
+    add("armrest_style", "int", 0, 0, 2, "armrests: 0 none, 1 straight, 2 loop")
     add("armrest_support", "bool", True, 0, 1, "a support under a straight armrest")
     add("armrest_cushion", "bool", False, 0, 1, "a pad on a straight armrest")
     add("armrest_width", "float", 0.04, 0.02, 0.07, "width of an armrest")
@@ -140,8 +140,9 @@ def _parameters(g: Graph) -> dict:
     add("armrest_mid", "float", 0.0, -0.6, 0.6, "where a loop armrest bulges (angle)")
     add("armrest_edge", "float", 0.8, 0.6, 1.0, "front attachment along the seat side")
     add("armrest_pad_thickness", "float", 0.02, 0.01, 0.03, "thickness of the pad")
-    add("armrest_panel_drop", "float", 1.0, 0.0, 1.0,
-        "side panel's foot: 0 in the seat, 1 on the floor")
+    add("side_panels", "bool", False, 0, 1, "a solid slab along each side up to the arm height")
+    add("side_panel_drop", "float", 1.0, 0.0, 1.0,
+        "side panels' foot: 0 in the seat, 1 on the floor")
     return p
 
 
@@ -410,28 +411,30 @@ def _loop_arm(c: _Chair, arm: _Arm):
     return g.transform(loop, rotation=(0.0, 0.0, math.pi / 2))
 
 
-def _panel_arm(c: _Chair, arm: _Arm):
-    """A slab `armrest_width` thick standing on the seat's side (centred on the corner's x,
-    so half of it is in the slab for every roundness), from the seat's back edge to the
-    front attachment, up to the back attachment's height; its foot goes from inside the
-    slab (`armrest_panel_drop` 0) down to the floor (1)."""
+def _side_panel(c: _Chair, arm: _Arm):
+    """When `side_panels`: a slab `armrest_width` thick standing on the seat's side (centred
+    on the corner's x, so half of it is in the slab for every roundness), from the seat's
+    back edge to the arms' front attachment, up to their back attachment's height; its foot
+    goes from inside the slab (`side_panel_drop` 0) down to the floor (1)."""
     g, p = c.g, c.p
     back_y = c.corner_y
     middle_y = (back_y + arm.front_y) * 0.5
-    bottom = c.inside * (1.0 - p["armrest_panel_drop"])
+    bottom = c.inside * (1.0 - p["side_panel_drop"])
     panel = straight_frame(g, start=g.vec(c.corner_x, middle_y, bottom),
                            end=g.vec(c.corner_x, middle_y, arm.back.z),
                            width=back_y - arm.front_y, depth=p["armrest_width"],
                            roundness=p["armrest_roundness"], axis=(0.0, 1.0, 0.0),
-                           label=ARM_PANELS)["Mesh"]
-    return panel
+                           label=SIDE_PANELS)["Mesh"]
+    return g.when(p["side_panels"], panel)
 
 
 def _armrests(c: _Chair):
-    """By `armrest_style`: none, straight, loop or side panel."""
+    """By `armrest_style`: none, straight or loop; and the optional side panels (under
+    the arms, or alone: the solid sides of an upholstered armchair)."""
     arm = _Arm(c)
-    return c.g.index_switch(c.p["armrest_style"], [None, _straight_arm(c, arm),
-                                                   _loop_arm(c, arm), _panel_arm(c, arm)])
+    arms = c.g.index_switch(c.p["armrest_style"], [None, _straight_arm(c, arm),
+                                                   _loop_arm(c, arm)])
+    return c.g.join([arms, _side_panel(c, arm)])
 
 
 # -- assembly -------------------------------------------------------------------------------

@@ -26,8 +26,8 @@ def _vertices(mesh, *labels) -> np.ndarray:
 def test_parameters_cover_the_chair(program):
     names = {p.name for p in program.parameters}
     kinds = [p.kind for p in program.parameters]
-    assert len(names) == 66
-    assert kinds.count("float") == 51 and len(kinds) - kinds.count("float") == 15
+    assert len(names) == 67
+    assert kinds.count("float") == 51 and len(kinds) - kinds.count("float") == 16
     expected = {
         "scale_x", "scale_y", "scale_z", "seat_height", "seat_roundness", "cushion",
         "cushion_fill", "cross_rail_count", "cross_rail_thickness_y", "cross_rail_thickness_z",
@@ -40,7 +40,7 @@ def test_parameters_cover_the_chair(program):
         "armrest_style", "armrest_support", "armrest_cushion", "armrest_width",
         "armrest_back_height", "armrest_front_height", "armrest_mid", "armrest_edge",
         "rail_bevel", "sled_base", "sled_joined", "casters", "caster_size",
-        "armrest_panel_drop",
+        "side_panels", "side_panel_drop",
     }
     assert expected <= names, expected - names
     for p in program.parameters:
@@ -59,9 +59,9 @@ def test_visibility_rules_are_inferred_from_the_switches(program):
     assert rules["top_rail_fill"] == "not backrest_solid and top_rail"
     assert rules["armrest_mid"] == "armrest_style == 2"
     assert rules["armrest_support"] == "armrest_style == 1"
-    assert rules["armrest_width"] == ("armrest_style == 1 or armrest_style == 2 or "
-                                      "armrest_style == 3")
-    assert rules["armrest_panel_drop"] == "armrest_style == 3"
+    assert rules["armrest_width"] == "armrest_style == 1 or armrest_style == 2 or side_panels"
+    assert rules["side_panels"] is None
+    assert rules["side_panel_drop"] == "side_panels"
     assert rules["sled_joined"] == "not monoleg and sled_base"
     assert rules["caster_size"] == "casters and monoleg and tent_legs"
 
@@ -75,7 +75,7 @@ def test_visibility_rules_are_inferred_from_the_switches(program):
     ({"vertical_rails": 1}, {"cross_rail_thickness_z": 0.08}),
     ({"monoleg": 1}, {"sled_base": 1, "sled_joined": 1}),
     ({"monoleg": 1, "tent_legs": 0}, {"casters": 1, "caster_size": 0.04}),
-    ({"armrest_style": 1}, {"armrest_panel_drop": 0.0}),
+    ({"side_panels": 0}, {"side_panel_drop": 0.0}),
 ])
 def test_invisible_parameters_leave_the_mesh_unchanged(program, hidden, change):
     before = program.evaluate(hidden)
@@ -105,10 +105,10 @@ def test_every_part_carries_its_own_label(program, label):
     solid = program.evaluate({"backrest_solid": 1, "armrest_style": 2})
     assert set(solid.metadata["part"]) == {label.SEAT, label.LEGS, label.BACK_FRAME,
                                            label.BACK_PANEL, label.ARMRESTS}
-    office = program.evaluate({"backrest_solid": 1, "armrest_style": 3, "monoleg": 1,
+    office = program.evaluate({"backrest_solid": 1, "side_panels": 1, "monoleg": 1,
                                "tent_legs": 1, "casters": 1})
     assert set(office.metadata["part"]) == {label.SEAT, label.BACK_FRAME, label.BACK_PANEL,
-                                            label.ARM_PANELS, label.MONOLEG, label.TENT_LEGS,
+                                            label.SIDE_PANELS, label.MONOLEG, label.TENT_LEGS,
                                             label.CASTERS}
 
 
@@ -257,20 +257,20 @@ def test_a_slim_straight_column_on_tent_legs_but_a_wide_pedestal_alone(program, 
 
 @pytest.mark.parametrize("roundness", [0.0, 1.0])
 def test_side_panels_reach_from_the_seat_down_to_the_floor(program, label, roundness):
-    arms = {"armrest_style": 3, "seat_roundness": roundness, "armrest_edge": 1.0,
+    arms = {"side_panels": 1, "seat_roundness": roundness, "armrest_edge": 1.0,
             "seat_height": 0.45, "seat_thickness": 0.06}
-    floor = program.evaluate({**arms, "armrest_panel_drop": 1.0})
-    panels = _vertices(floor, label.ARM_PANELS)
+    floor = program.evaluate({**arms, "side_panel_drop": 1.0})
+    panels = _vertices(floor, label.SIDE_PANELS)
     # on the floor (the slanted feet's rims dip a few mm lower)
     assert panels[:, 2].min() == pytest.approx(0.0, abs=0.01)
     assert panels[:, 2].max() > 0.45 + 0.1
     # one slab per side, along the seat's sides
     assert panels[:, 0].min() < -0.15 and panels[:, 0].max() > 0.15
     assert np.ptp(panels[:, 1]) > 0.25
-    seated = _vertices(program.evaluate({**arms, "armrest_panel_drop": 0.0}), label.ARM_PANELS)
+    seated = _vertices(program.evaluate({**arms, "side_panel_drop": 0.0}), label.SIDE_PANELS)
     assert 0.45 - 0.06 < seated[:, 2].min() < 0.45
-    for mesh in (floor, program.evaluate({**arms, "armrest_panel_drop": 0.0})):
-        assert loose_parts(part_mesh(mesh, label.SEAT, label.ARM_PANELS)) == 0
+    for mesh in (floor, program.evaluate({**arms, "side_panel_drop": 0.0})):
+        assert loose_parts(part_mesh(mesh, label.SEAT, label.SIDE_PANELS)) == 0
 
 
 def test_overall_scale_scales_each_axis(program):
