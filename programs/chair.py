@@ -9,8 +9,8 @@ overall scale. Structure (every part touches the rest for every parameter combin
 - legs: four MeshLegs from under the seat corners to z = 0, optionally on a sled base
   (a MeshStraightFrame runner on the floor through each side's feet, the two optionally
   joined at the back by a tube across), or a monoleg (a column with StyleBezierSegment: a
-  pedestal at least PEDESTAL_FOOT wide at its foot, or a column, slim if need be, on tent
-  legs: radial MeshQuadraticCartesian, optionally on caster wheels, MeshStraightFrame);
+  pedestal, or a slimmer column on tent legs: radial MeshQuadraticCartesian, optionally
+  on caster wheels, MeshStraightFrame);
 - backrest: two frames (MeshQuadraticCartesianAlignedXYFrame, mirrored in x) rising from
   the seat's back corners; cross rails (MeshCrossRail on SampleCurveArray points of the
   frame), vertical rails (the frame's path repeated across) or a solid panel (the frame's
@@ -59,7 +59,7 @@ SEAT_SIZE = 0.5          # width and depth of the seat before the overall scale
 LEG_INSET = 1.2          # legs sit this many radii inside the seat's corner
 SINK = 0.5               # parts attached under/over a slab start this share inside it
 TENT_HUB = 0.06          # height of the monoleg's foot above the floor with tent legs
-PEDESTAL_FOOT = 0.12     # smallest foot radius of a monoleg without tent legs
+TENT_COLUMN = 0.35       # a column on tent legs: this share of a pedestal's profile
 CASTER_LIFT = 1.8        # tent legs' ends above the floor, in caster radii (sunk in the wheel)
 CASTER_WIDTH = 0.8       # width of a caster wheel, in radii
 PAD_SINK = 0.3           # share of an armrest pad sunk into its armrest
@@ -90,11 +90,10 @@ def _parameters(g: Graph) -> dict:
     add("back_leg_offset", "float", 0.03, 0.0, 0.1, "how far back the back feet reach")
     add("sled_base", "bool", False, 0, 1, "a runner on the floor joining each side's feet")
     add("sled_joined", "bool", False, 0, 1, "a tube across joining the runners at the back")
-    add("monoleg_top_radius", "float", 0.06, 0.02, 0.12, "monoleg Bezier profile: top")
-    add("monoleg_top_handle", "float", 0.06, 0.02, 0.12, "monoleg Bezier profile: upper handle")
-    add("monoleg_bottom_handle", "float", 0.1, 0.02, 0.2, "monoleg Bezier profile: lower handle")
-    add("monoleg_bottom_radius", "float", 0.22, 0.03, 0.3,
-        "monoleg Bezier profile: foot (a pedestal's at least 0.12)")
+    add("monoleg_top_radius", "float", 0.06, 0.03, 0.12, "monoleg Bezier profile: top")
+    add("monoleg_top_handle", "float", 0.06, 0.03, 0.12, "monoleg Bezier profile: upper handle")
+    add("monoleg_bottom_handle", "float", 0.1, 0.05, 0.2, "monoleg Bezier profile: lower handle")
+    add("monoleg_bottom_radius", "float", 0.22, 0.12, 0.3, "monoleg Bezier profile: foot")
     add("tent_legs", "bool", False, 0, 1, "legs spreading from the monoleg's foot")
     add("tent_leg_count", "int", 4, 3, 6, "number of tent legs")
     add("tent_leg_spread", "float", 0.3, 0.22, 0.38, "reach of the tent legs")
@@ -253,22 +252,22 @@ def _sled(c: _Chair, front, back):
 
 
 def _monoleg(c: _Chair):
-    """When `monoleg`: a column under the seat's centre whose silhouette is a Bezier profile;
-    with tent legs its foot is lifted by `TENT_HUB` (and the casters' height) and the legs,
-    joined into it, carry the chair; without, its foot is a pedestal at least
-    `PEDESTAL_FOOT` wide, so that the chair stands."""
+    """When `monoleg`: a column under the seat's centre whose silhouette is a Bezier profile:
+    a pedestal standing on its foot; or, with tent legs, a slim column (the profile scaled
+    by `TENT_COLUMN`: a gas lift, a bar stool's stem) whose foot is lifted by `TENT_HUB`
+    (and the casters' height) and joined into the legs that carry the chair."""
     g, p = c.g, c.p
     lift = g.when(p["casters"], p["caster_size"] * CASTER_LIFT, 0.0)
     foot = g.when(p["tent_legs"], lift + TENT_HUB, 0.0)
     path = g.line(g.vec(0.0, 0.0, c.inside), g.vec(0.0, 0.0, foot), count=12)
     profile = rectangle_fillet(g, width=2.0, height=2.0, roundness=1.0,
                                resolution=3)["Curve"]
-    bottom = p["monoleg_bottom_radius"]
+    slim = g.when(p["tent_legs"], TENT_COLUMN, 1.0)
     column = bezier_segment_style(
-        g, curve=path, profile_curve=profile, start=p["monoleg_top_radius"],
-        start_handle=p["monoleg_top_handle"], end_handle=p["monoleg_bottom_handle"],
-        end=g.when(p["tent_legs"], bottom, g.max(bottom, PEDESTAL_FOOT)), fill_caps=True,
-        label=MONOLEG)["Mesh"]
+        g, curve=path, profile_curve=profile, start=p["monoleg_top_radius"] * slim,
+        start_handle=p["monoleg_top_handle"] * slim,
+        end_handle=p["monoleg_bottom_handle"] * slim, end=p["monoleg_bottom_radius"] * slim,
+        fill_caps=True, label=MONOLEG)["Mesh"]
     monoleg = g.join([column, g.when(p["tent_legs"], _tent_legs(c, foot, lift))])
     return g.when(p["monoleg"], monoleg)
 
