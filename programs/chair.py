@@ -1,4 +1,4 @@
-"""The chair program (61 parameters: 12 discrete, 49 continuous).
+"""The chair program (67 parameters: 16 discrete, 51 continuous).
 
 Layout: x = width, y = depth (the backrest at +y), z = up; a 0.5 x 0.5 seat before the
 overall scale. Structure (every part touches the rest for every parameter combination):
@@ -6,15 +6,20 @@ overall scale. Structure (every part touches the rest for every parameter combin
   anchor of legs, backrest frame and armrests, so they follow the seat's roundness, and
   they all start inside the seat slab, so they follow its height;
 - cushion: MeshCushion sunk a little into the seat's top;
-- legs: four MeshLegs from under the seat corners to z = 0, or a monoleg (a column with
-  StyleBezierSegment) with optional tent legs (radial MeshQuadraticCartesian);
+- legs: four MeshLegs from under the seat corners to z = 0, optionally on a sled base
+  (a MeshStraightFrame runner on the floor through each side's feet, the two optionally
+  joined at the back by a tube across), or a monoleg (a column with StyleBezierSegment: a
+  pedestal, or a slimmer column on tent legs: radial MeshQuadraticCartesian, optionally
+  on caster wheels, MeshStraightFrame);
 - backrest: two frames (MeshQuadraticCartesianAlignedXYFrame, mirrored in x) rising from
   the seat's back corners; cross rails (MeshCrossRail on SampleCurveArray points of the
   frame), vertical rails (the frame's path repeated across) or a solid panel (the frame's
   path swept with a panel profile) span the two frames; a MeshTopRail caps them;
 - armrests: from a point sampled on the frame forward, either a straight bar
   (MeshStraightFrame) with an optional support (MeshFrameFixedBottom) down into the seat
-  and a pad, or a loop (MeshQuadraticPolarFrame) from the frame down into the seat;
+  and a pad, or a loop (MeshQuadraticPolarFrame) from the frame down into the seat; and
+  optional side panels (a vertical MeshStraightFrame slab) through the seat's sides, from
+  the floor or the seat up to the arms' back attachment's height;
 - the chair is scaled per axis and grounded so that its lowest point lies on z = 0.
 Selectors reach the geometry only through Switch / Index Switch nodes, so visibility rules
 are inferred from the graph. In Blender's node editor each piece is a node group: Seat,
@@ -48,12 +53,15 @@ from geocode.nodes import (
 
 # labels (segmentation)
 (SEAT, CUSHION, LEGS, BACK_FRAME, CROSS_RAILS, VERTICAL_RAILS, TOP_RAIL, BACK_PANEL,
- ARMRESTS, ARM_SUPPORTS, ARM_PADS, MONOLEG, TENT_LEGS) = range(1, 14)
+ ARMRESTS, ARM_SUPPORTS, ARM_PADS, MONOLEG, TENT_LEGS, CASTERS, SIDE_PANELS) = range(1, 16)
 
 SEAT_SIZE = 0.5          # width and depth of the seat before the overall scale
 LEG_INSET = 1.2          # legs sit this many radii inside the seat's corner
 SINK = 0.5               # parts attached under/over a slab start this share inside it
 TENT_HUB = 0.06          # height of the monoleg's foot above the floor with tent legs
+TENT_COLUMN = 0.35       # a column on tent legs: this share of a pedestal's profile
+CASTER_LIFT = 1.8        # tent legs' ends above the floor, in caster radii (sunk in the wheel)
+CASTER_WIDTH = 0.8       # width of a caster wheel, in radii
 PAD_SINK = 0.3           # share of an armrest pad sunk into its armrest
 ARM_LOOP_BULGE = 0.35    # bulge of a loop armrest, as a share of its chord
 
@@ -80,6 +88,8 @@ def _parameters(g: Graph) -> dict:
     add("leg_bevel", "float", 0.0, 0.0, 1.0, "leg profile: 0 square, 1 round")
     add("leg_curvature", "float", 0.5, 0.0, 1.0, "legs: 0 straight, 1 vertical at the top")
     add("back_leg_offset", "float", 0.03, 0.0, 0.1, "how far back the back feet reach")
+    add("sled_base", "bool", False, 0, 1, "a runner on the floor joining each side's feet")
+    add("sled_joined", "bool", False, 0, 1, "a tube across joining the runners at the back")
     add("monoleg_top_radius", "float", 0.06, 0.03, 0.12, "monoleg Bezier profile: top")
     add("monoleg_top_handle", "float", 0.06, 0.03, 0.12, "monoleg Bezier profile: upper handle")
     add("monoleg_bottom_handle", "float", 0.1, 0.05, 0.2, "monoleg Bezier profile: lower handle")
@@ -88,6 +98,8 @@ def _parameters(g: Graph) -> dict:
     add("tent_leg_count", "int", 4, 3, 6, "number of tent legs")
     add("tent_leg_spread", "float", 0.3, 0.22, 0.38, "reach of the tent legs")
     add("tent_leg_thickness", "float", 0.02, 0.012, 0.03, "half-width of a tent leg")
+    add("casters", "bool", False, 0, 1, "a caster wheel under each tent leg's end")
+    add("caster_size", "float", 0.025, 0.015, 0.04, "radius of a caster wheel")
     # backrest frame
     add("backrest_height", "float", 0.45, 0.3, 0.6, "height of the backrest above the seat")
     add("backrest_slant", "float", 0.1, -0.05, 0.35, "backward lean of the backrest")
@@ -127,6 +139,9 @@ def _parameters(g: Graph) -> dict:
     add("armrest_mid", "float", 0.0, -0.6, 0.6, "where a loop armrest bulges (angle)")
     add("armrest_edge", "float", 0.8, 0.6, 1.0, "front attachment along the seat side")
     add("armrest_pad_thickness", "float", 0.02, 0.01, 0.03, "thickness of the pad")
+    add("side_panels", "bool", False, 0, 1, "a solid slab along each side up to the arm height")
+    add("side_panel_drop", "float", 1.0, 0.0, 1.0,
+        "side panels' foot: 0 in the seat, 1 on the floor")
     return p
 
 
@@ -201,7 +216,8 @@ def _cushion(c: _Chair):
 def _four_legs(c: _Chair):
     """Unless `monoleg`: the right front and back legs (the left ones come from the chair's
     mirror), from inside the slab at the seat corner moved in by 1.2 radii, to feet spread
-    by `leg_splay` (the back ones `back_leg_offset` further back)."""
+    by `leg_splay` (the back ones `back_leg_offset` further back); with `sled_base`, a
+    runner on the floor through both feet."""
     g, p = c.g, c.p
     inset = p["leg_thickness"] * LEG_INSET
     x, y = c.corner_x - inset, c.corner_y - inset
@@ -213,39 +229,74 @@ def _four_legs(c: _Chair):
                      top_radius=p["leg_thickness"],
                      bottom_radius=p["leg_thickness"] * p["leg_taper"],
                      roundness=p["leg_bevel"], label=LEGS)["Mesh"] for k in ("front", "back")]
-    return g.when(p["monoleg"], None, g.join(legs))
+    runner = g.when(p["sled_base"], _sled(c, feet["front"], feet["back"]))
+    return g.when(p["monoleg"], None, g.join([*legs, runner]))
+
+
+def _sled(c: _Chair, front, back):
+    """The right runner: a tube as thick as the feet, its axis through the feet (so it is
+    the lowest part and the legs end in it), from one foot radius before the front foot to
+    one behind the back foot; with `sled_joined`, half of a tube across at the back (the
+    mirror adds the other half)."""
+    g, p = c.g, c.p
+    radius = p["leg_thickness"] * p["leg_taper"]
+    start = g.vec(front.x, front.y - radius, 0.0)
+    end = g.vec(back.x, back.y + radius, 0.0)
+    runner = straight_frame(g, start=start, end=end, width=radius * 2.0, depth=radius * 2.0,
+                            roundness=p["leg_bevel"], label=LEGS)["Mesh"]
+    across = straight_frame(g, start=g.vec(0.0, back.y, 0.0),
+                            end=g.vec(back.x, back.y, 0.0), width=radius * 2.0,
+                            depth=radius * 2.0, roundness=p["leg_bevel"],
+                            axis=(0.0, 1.0, 0.0), label=LEGS)["Mesh"]
+    return g.join([runner, g.when(p["sled_joined"], across)])
 
 
 def _monoleg(c: _Chair):
-    """When `monoleg`: a column under the seat's centre whose silhouette is a Bezier profile;
-    with tent legs its foot is lifted by `TENT_HUB` and the legs, joined into it, carry the
-    chair."""
+    """When `monoleg`: a column under the seat's centre whose silhouette is a Bezier profile:
+    a pedestal standing on its foot; or, with tent legs, a slim column (the profile scaled
+    by `TENT_COLUMN`: a gas lift, a bar stool's stem) whose foot is lifted by `TENT_HUB`
+    (and the casters' height) and joined into the legs that carry the chair."""
     g, p = c.g, c.p
-    foot = g.when(p["tent_legs"], TENT_HUB, 0.0)
+    lift = g.when(p["casters"], p["caster_size"] * CASTER_LIFT, 0.0)
+    foot = g.when(p["tent_legs"], lift + TENT_HUB, 0.0)
     path = g.line(g.vec(0.0, 0.0, c.inside), g.vec(0.0, 0.0, foot), count=12)
     profile = rectangle_fillet(g, width=2.0, height=2.0, roundness=1.0,
                                resolution=3)["Curve"]
+    slim = g.when(p["tent_legs"], TENT_COLUMN, 1.0)
     column = bezier_segment_style(
-        g, curve=path, profile_curve=profile, start=p["monoleg_top_radius"],
-        start_handle=p["monoleg_top_handle"], end_handle=p["monoleg_bottom_handle"],
-        end=p["monoleg_bottom_radius"], fill_caps=True, label=MONOLEG)["Mesh"]
-    monoleg = g.join([column, g.when(p["tent_legs"], _tent_legs(c, foot))])
+        g, curve=path, profile_curve=profile, start=p["monoleg_top_radius"] * slim,
+        start_handle=p["monoleg_top_handle"] * slim,
+        end_handle=p["monoleg_bottom_handle"] * slim, end=p["monoleg_bottom_radius"] * slim,
+        fill_caps=True, label=MONOLEG)["Mesh"]
+    monoleg = g.join([column, g.when(p["tent_legs"], _tent_legs(c, foot, lift))])
     return g.when(p["monoleg"], monoleg)
 
 
-def _tent_legs(c: _Chair, foot):
-    """`tent_leg_count` legs from 3 cm above the column's foot out to `tent_leg_spread`."""
+def _tent_legs(c: _Chair, foot, lift):
+    """`tent_leg_count` legs from 3 cm above the column's foot out to `tent_leg_spread`,
+    their ends `lift` above the floor: on the floor, or on casters."""
     g, p = c.g, c.p
     hub = g.vec(0.0, 0.0, foot + 0.03)
-    toe = g.vec(p["tent_leg_spread"], 0.0, 0.0)
-    # the middle control point above the toe: the leg stands vertically on the floor
+    toe = g.vec(p["tent_leg_spread"], 0.0, lift)
+    # the middle control point above the toe: the leg ends vertically on the floor (caster)
     offset = g.vec(p["tent_leg_spread"] * 0.5, 0.0, 0.0)
     one = quadratic_cartesian_mesh(g, start=hub, end=toe, offset=offset,
                                    radius=p["tent_leg_thickness"], roundness=1.0,
                                    axis=(0.0, 1.0, 0.0), label=TENT_LEGS)["Mesh"]
+    leg = g.join([one, g.when(p["casters"], _caster(c, toe))])
     # one leg always points backwards (+y), under the backrest
-    return radial(g, geometry=one, count=p["tent_leg_count"], radius=0.0,
+    return radial(g, geometry=leg, count=p["tent_leg_count"], radius=0.0,
                   start_angle=math.pi / 2)["Geometry"]
+
+
+def _caster(c: _Chair, toe):
+    """A wheel of radius `caster_size` standing on the floor under the toe (the leg's end
+    sunk into its top), its axle across the leg."""
+    g, p = c.g, c.p
+    r = p["caster_size"]
+    half = r * CASTER_WIDTH * 0.5
+    return straight_frame(g, start=g.vec(toe.x, -half, r), end=g.vec(toe.x, half, r),
+                          width=r * 2.0, depth=r * 2.0, roundness=1.0, label=CASTERS)["Mesh"]
 
 
 # -- backrest -------------------------------------------------------------------------------
@@ -359,11 +410,30 @@ def _loop_arm(c: _Chair, arm: _Arm):
     return g.transform(loop, rotation=(0.0, 0.0, math.pi / 2))
 
 
+def _side_panel(c: _Chair, arm: _Arm):
+    """When `side_panels`: a slab `armrest_width` thick standing on the seat's side (centred
+    on the corner's x, so half of it is in the slab for every roundness), from the seat's
+    back edge to the arms' front attachment, up to their back attachment's height; its foot
+    goes from inside the slab (`side_panel_drop` 0) down to the floor (1)."""
+    g, p = c.g, c.p
+    back_y = c.corner_y
+    middle_y = (back_y + arm.front_y) * 0.5
+    bottom = c.inside * (1.0 - p["side_panel_drop"])
+    panel = straight_frame(g, start=g.vec(c.corner_x, middle_y, bottom),
+                           end=g.vec(c.corner_x, middle_y, arm.back.z),
+                           width=back_y - arm.front_y, depth=p["armrest_width"],
+                           roundness=p["armrest_roundness"], axis=(0.0, 1.0, 0.0),
+                           label=SIDE_PANELS)["Mesh"]
+    return g.when(p["side_panels"], panel)
+
+
 def _armrests(c: _Chair):
-    """By `armrest_style`: none, straight or loop."""
+    """By `armrest_style`: none, straight or loop; and the optional side panels (under
+    the arms, or alone: the solid sides of an upholstered armchair)."""
     arm = _Arm(c)
-    return c.g.index_switch(c.p["armrest_style"], [None, _straight_arm(c, arm),
+    arms = c.g.index_switch(c.p["armrest_style"], [None, _straight_arm(c, arm),
                                                    _loop_arm(c, arm)])
+    return c.g.join([arms, _side_panel(c, arm)])
 
 
 # -- assembly -------------------------------------------------------------------------------

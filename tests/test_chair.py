@@ -26,8 +26,8 @@ def _vertices(mesh, *labels) -> np.ndarray:
 def test_parameters_cover_the_chair(program):
     names = {p.name for p in program.parameters}
     kinds = [p.kind for p in program.parameters]
-    assert len(names) == 61
-    assert kinds.count("float") == 49 and len(kinds) - kinds.count("float") == 12
+    assert len(names) == 67
+    assert kinds.count("float") == 51 and len(kinds) - kinds.count("float") == 16
     expected = {
         "scale_x", "scale_y", "scale_z", "seat_height", "seat_roundness", "cushion",
         "cushion_fill", "cross_rail_count", "cross_rail_thickness_y", "cross_rail_thickness_z",
@@ -39,7 +39,8 @@ def test_parameters_cover_the_chair(program):
         "monoleg_bottom_radius", "tent_legs", "tent_leg_count", "tent_leg_spread",
         "armrest_style", "armrest_support", "armrest_cushion", "armrest_width",
         "armrest_back_height", "armrest_front_height", "armrest_mid", "armrest_edge",
-        "rail_bevel",
+        "rail_bevel", "sled_base", "sled_joined", "casters", "caster_size",
+        "side_panels", "side_panel_drop",
     }
     assert expected <= names, expected - names
     for p in program.parameters:
@@ -58,7 +59,11 @@ def test_visibility_rules_are_inferred_from_the_switches(program):
     assert rules["top_rail_fill"] == "not backrest_solid and top_rail"
     assert rules["armrest_mid"] == "armrest_style == 2"
     assert rules["armrest_support"] == "armrest_style == 1"
-    assert rules["armrest_width"] == "armrest_style == 1 or armrest_style == 2"
+    assert rules["armrest_width"] == "armrest_style == 1 or armrest_style == 2 or side_panels"
+    assert rules["side_panels"] is None
+    assert rules["side_panel_drop"] == "side_panels"
+    assert rules["sled_joined"] == "not monoleg and sled_base"
+    assert rules["caster_size"] == "casters and monoleg and tent_legs"
 
 
 @pytest.mark.parametrize("hidden, change", [
@@ -68,6 +73,9 @@ def test_visibility_rules_are_inferred_from_the_switches(program):
     ({"monoleg": 0}, {"tent_legs": 1, "monoleg_bottom_radius": 0.3}),
     ({"backrest_solid": 1}, {"cross_rail_count": 4, "top_rail_size": 0.14}),
     ({"vertical_rails": 1}, {"cross_rail_thickness_z": 0.08}),
+    ({"monoleg": 1}, {"sled_base": 1, "sled_joined": 1}),
+    ({"monoleg": 1, "tent_legs": 0}, {"casters": 1, "caster_size": 0.04}),
+    ({"side_panels": 0}, {"side_panel_drop": 0.0}),
 ])
 def test_invisible_parameters_leave_the_mesh_unchanged(program, hidden, change):
     before = program.evaluate(hidden)
@@ -97,6 +105,11 @@ def test_every_part_carries_its_own_label(program, label):
     solid = program.evaluate({"backrest_solid": 1, "armrest_style": 2})
     assert set(solid.metadata["part"]) == {label.SEAT, label.LEGS, label.BACK_FRAME,
                                            label.BACK_PANEL, label.ARMRESTS}
+    office = program.evaluate({"backrest_solid": 1, "side_panels": 1, "monoleg": 1,
+                               "tent_legs": 1, "casters": 1})
+    assert set(office.metadata["part"]) == {label.SEAT, label.BACK_FRAME, label.BACK_PANEL,
+                                            label.SIDE_PANELS, label.MONOLEG, label.TENT_LEGS,
+                                            label.CASTERS}
 
 
 # -- structural rules ------------------------------------------------------------------------------
@@ -193,6 +206,75 @@ def test_monoleg_foot_rests_on_the_floor(program, label):
     foot = _vertices(mesh, label.MONOLEG)
     foot = foot[foot[:, 2] < 1e-6]
     assert np.linalg.norm(foot[:, :2], axis=1).max() == pytest.approx(0.2, abs=1e-3)
+
+
+def test_sled_runners_join_each_sides_feet_on_the_floor(program, label):
+    legs = {"leg_thickness": 0.02, "leg_taper": 1.0, "leg_splay": 0.04, "back_leg_offset": 0.1}
+    four = _vertices(program.evaluate({**legs, "sled_base": 0}), label.LEGS)
+    mesh = program.evaluate({**legs, "sled_base": 1})
+    sled = _vertices(mesh, label.LEGS)
+    # on the floor, the runners reach as far as the feet's rims (a foot radius around each
+    # foot; the legs end in the runners); between the feet, legs alone leave the floor empty
+    low = lambda v: v[v[:, 2] < 0.02]  # noqa: E731
+    between = lambda v: v[np.abs(v[:, 1]) < 0.1]  # noqa: E731
+    assert len(between(low(four))) == 0 and len(between(low(sled)))
+    assert np.ptp(low(sled)[:, 1]) == pytest.approx(np.ptp(low(four)[:, 1]), abs=0.005)
+    # ... lying on the floor: no runner vertex there sits higher than its tube's diameter
+    assert sled[:, 2].min() == pytest.approx(0.0, abs=1e-6)
+    assert between(sled)[:, 2].max() < 0.04 + 1e-3
+    assert loose_parts(mesh) == 0
+    # joined: a tube across the back
+    joined = _vertices(program.evaluate({**legs, "sled_base": 1, "sled_joined": 1}), label.LEGS)
+    centre = joined[np.abs(joined[:, 0]) < 0.05]
+    assert len(centre) and centre[:, 1].min() > 0.2 and centre[:, 2].max() < 0.05
+
+
+def test_casters_lift_the_tent_legs_off_the_floor(program, label):
+    base = {"monoleg": 1, "tent_legs": 1, "tent_leg_count": 5, "caster_size": 0.03}
+    mesh = program.evaluate({**base, "casters": 1})
+    wheels = _vertices(mesh, label.CASTERS)
+    assert wheels[:, 2].min() == pytest.approx(0.0, abs=1e-6)
+    assert wheels[:, 2].max() == pytest.approx(0.06, abs=2e-3)
+    # the legs rest on the wheels, above the floor; one wheel per leg, at the legs' ends
+    assert _vertices(mesh, label.TENT_LEGS)[:, 2].min() > 0.03
+    radius = np.linalg.norm(wheels[:, :2], axis=1)
+    assert radius.min() > 0.3 - 0.04 and radius.max() < 0.3 + 0.04
+    assert loose_parts(mesh) == 0
+    assert len(part_mesh(mesh, label.CASTERS).split(only_watertight=False)) == 5
+    bare = program.evaluate({**base, "casters": 0})
+    assert _vertices(bare, label.TENT_LEGS)[:, 2].min() == pytest.approx(0.0, abs=1e-6)
+
+
+def test_a_column_on_tent_legs_is_a_slim_copy_of_the_pedestal(program, label):
+    straight = {"monoleg": 1, "monoleg_top_radius": 0.12, "monoleg_top_handle": 0.12,
+                "monoleg_bottom_handle": 0.12, "monoleg_bottom_radius": 0.12}
+    column = _vertices(program.evaluate({**straight, "tent_legs": 1}), label.MONOLEG)
+    radius = np.linalg.norm(column[:, :2], axis=1)
+    side = radius[radius > 1e-6]   # the caps' centres aside
+    # a straight column of 0.35 x 0.12 (a gas lift)
+    assert side.max() == pytest.approx(0.042, abs=1e-3)
+    assert side.min() > 0.042 * 0.9
+    pedestal = _vertices(program.evaluate({**straight, "tent_legs": 0}), label.MONOLEG)
+    foot = pedestal[pedestal[:, 2] < 1e-6]
+    assert np.linalg.norm(foot[:, :2], axis=1).max() == pytest.approx(0.12, abs=2e-3)
+
+
+@pytest.mark.parametrize("roundness", [0.0, 1.0])
+def test_side_panels_reach_from_the_seat_down_to_the_floor(program, label, roundness):
+    arms = {"side_panels": 1, "seat_roundness": roundness, "armrest_edge": 1.0,
+            "seat_height": 0.45, "seat_thickness": 0.06}
+    floor = program.evaluate({**arms, "side_panel_drop": 1.0})
+    panels = _vertices(floor, label.SIDE_PANELS)
+    # on the floor (the slanted feet's rims dip a few mm lower)
+    assert panels[:, 2].min() == pytest.approx(0.0, abs=0.01)
+    assert panels[:, 2].max() > 0.45 + 0.1
+    # one slab per side, along the seat's sides
+    assert panels[:, 0].min() < -0.15 and panels[:, 0].max() > 0.15
+    assert np.ptp(panels[:, 1]) > 0.25
+    seated = _vertices(program.evaluate({**arms, "side_panel_drop": 0.0}), label.SIDE_PANELS)
+    assert 0.45 - 0.06 < seated[:, 2].min() < 0.45
+    for mesh in (floor, program.evaluate({**arms, "side_panel_drop": 0.0})):
+        assert loose_parts(part_mesh(mesh, label.SEAT, label.SIDE_PANELS)) == 0
 
 
 def test_overall_scale_scales_each_axis(program):
