@@ -55,3 +55,14 @@ def test_bench_span_fits_from_the_defaults_and_writes_a_page(folder, tmp_path, c
     assert result["shapes"] == 2 and result["budget"] == 8
     assert all(f["evaluations"] == 8 and f["chamfer"] > 0 for f in result["files"])
     assert "turned.off" in (out / "index.html").read_text()
+
+
+def test_switch_starts_put_each_other_value_of_one_discrete_parameter_first():
+    from geocode.bench.span import switch_starts
+
+    defaults = {"legs": 0.0, "sled": 0.0, "height": 0.5}
+    options = {"legs": [0.0, 1.0, 2.0], "sled": [0.0, 1.0]}
+    starts = switch_starts(defaults, options, turn=1.5)
+    assert [(s.values["legs"], s.values["sled"]) for s in starts] == [(1.0, 0.0), (2.0, 0.0), (0.0, 1.0)]
+    assert all(s.turn == 1.5 and s.values["height"] == 0.5 for s in starts)
+    assert starts[1].options == {"legs": [2.0, 0.0, 1.0], "sled": [0.0, 1.0]}

@@ -1,9 +1,12 @@
 """`geocode bench span <domain> <folder>`: how near a program can come to real shapes at all.
 
 No network: for each mesh of the folder, a long fit (`geocode.fit`, default SPAN_BUDGET
-evaluations) from the program's defaults at the four quarter-turns about the up axis, every
-discrete parameter searched over all its values, CMA-ES restarted from the best starts; the
-pose (up axis, then turn, scale and offset) found as `geocode reconstruct` finds it. What
+evaluations) from the program's defaults: first at the four quarter-turns about the up axis,
+then, at the best of them, also from the defaults with one discrete parameter switched to each
+of its other values (a sled base, side panels, an open row: a form one switch away is a start
+of its own, not a long step of the search), every discrete parameter searched over all its
+values, CMA-ES restarted from the best starts; the pose (up axis, then turn, scale and
+offset) found as `geocode reconstruct` finds it. What
 distance remains (plain symmetric Chamfer, as `geocode bench real` scores it) is the part of
 the real shapes the program cannot make. Writes a page of each mesh beside the best shape.
 """
@@ -27,6 +30,35 @@ RESTARTS = 4
 def all_options(recipe) -> dict[str, list[float]]:
     """Every value of every discrete recipe parameter (its classes, in order)."""
     return {p.name: [float(c) for c in p.classes] for p in recipe.parameters if p.kind != "float"}
+
+
+def start_at(values: dict[str, float], options: dict[str, list[float]], turn: float) -> Start:
+    """A start at `values`, each discrete parameter's own value first among its options
+    (where CMA-ES starts) and the others after it."""
+    ordered = {name: [values[name], *(v for v in vals if v != values[name])] for name, vals in options.items()}
+    return Start(values, ordered, turn=turn)
+
+
+def switch_starts(defaults: dict[str, float], options: dict[str, list[float]], turn: float) -> list[Start]:
+    """The defaults with one discrete parameter switched to each of its other values."""
+    return [start_at({**defaults, name: v}, options, turn)
+            for name, vals in options.items() for v in vals if v != defaults[name]]
+
+
+def span_fit(program, recipe, target: np.ndarray, budget: int, seed: int):
+    """The fit from the defaults at the four quarter-turns (one evaluation each), then from
+    those and the one-switch starts at the best turn: `budget` evaluations in all (at least 5)."""
+    defaults, options = program.check({}), all_options(recipe)
+    turns = [start_at(defaults, options, k * math.pi / 2) for k in range(4)]
+    first = fit(program, recipe, turns, target, len(turns), seed=seed, restarts=0)
+    best = turns[first.start].turn
+    starts = [turns[first.start], *switch_starts(defaults, options, best),
+              *(t for t in turns if t.turn != best)]
+    # a budget under the number of starts scores the first ones only (`fit`)
+    result = fit(program, recipe, starts, target, max(1, budget - len(turns)), seed=seed,
+                 restarts=RESTARTS)
+    result.evaluations += first.evaluations
+    return result
 
 
 def bench_span(overrides: list[str], domain: str, folder: Path, budget: int | None = None,
@@ -55,10 +87,7 @@ def bench_span(overrides: list[str], domain: str, folder: Path, budget: int | No
         geometry = read_geometry(path)
         run.up = true_up(path.name, table) or "auto"
         frame = run.frames(geometry)[0]
-        starts = [Start(run.program.check({}), all_options(run.recipe), turn=k * math.pi / 2)
-                  for k in range(4)]
-        result = fit(run.program, run.recipe, starts, frame.samples[:4096], budget,
-                     seed=run.cfg.seed, restarts=RESTARTS)
+        result = span_fit(run.program, run.recipe, frame.samples[:4096], budget, run.cfg.seed)
         answer = Answer(result.values, result.pose, run.score(frame, result.values, result.pose))
         seconds = time.perf_counter() - started
         rows.append({"file": path.name, "chamfer": round(answer.chamfer, 6), "seconds": round(seconds, 1),
