@@ -136,7 +136,9 @@ def test_a_folder_is_reconstructed_with_a_page(files, tmp_path, capsys):
     assert main(["reconstruct", "vase", str(folder), "-o", str(out), "--recursive", "--json",
                  "--checkpoint", str(files["ckpt"]), "--refine", "3", "--candidates", "2"]) == 0
     summary = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    seconds = summary.pop("seconds_median"), *summary.pop("seconds_range")
     assert summary == {"inputs": 3, "reconstructed": 2, "failed": 1, "page": str(out / "index.html")}
+    assert 0 < seconds[1] <= seconds[0] <= seconds[2]
     assert (out / "vase.blend").exists() and (out / "sub" / "vase.blend").exists()
     html = (out / "index.html").read_text()
     assert "sub/vase.obj" in html and "broken.xyz" in html

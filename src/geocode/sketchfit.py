@@ -58,6 +58,7 @@ CAMERA_SIGMA = (0.05, 0.05, 0.1, 0.05, 0.05, 0.05)   # ... on the camera's coord
 STEPS = (0.15, 0.075, 0.04) # the best start's continuous parameters one at a time first, by
                          # these shares of their ranges in turn
 PRIOR = 0.3              # px per squared unit-box move of the parameters from the start
+CAMERA_PRIOR = 0.0       # ... of the camera's coordinates from the start's view
 CACHE = 8                # shapes kept between evaluations (the starts share theirs)
 
 
@@ -181,8 +182,9 @@ def fit_drawing(program, recipe, starts: Sequence[Start], drawing: np.ndarray,
         values = space.values(np.asarray(x[:n]))
         outline = shapes(values) if recipe.satisfies(values) else None
         value = math.inf if outline is None else distance(strokes(outline, cams.view(x[n:])))
-        if PRIOR and outline is not None:
-            value += PRIOR * float(np.sum((np.clip(x[:n], 0, 1) - x0s[i][:n]) ** 2))
+        if outline is not None:
+            moved = (np.clip(x, 0, 1) - x0s[i]) ** 2
+            value += PRIOR * float(np.sum(moved[:n])) + CAMERA_PRIOR * float(np.sum(moved[n:]))
         curve.append(min(value, curve[-1]) if curve else value)
         return value
 

@@ -336,9 +336,12 @@ def reconstruct(cfg, domain: str, input_path: Path, out_dir: Path, checkpoint: P
     entries, summaries = [], []
     for path in files:
         name = path.relative_to(root).as_posix()
+        started = time.perf_counter()
         try:
             result = run(path)
             entry = write_outputs(run, result, out_dir / Path(name).with_suffix(""), out_dir, name)
+            # a user's seconds: the pictures, .blend and other files included
+            entry.seconds = result.summary["seconds"] = round(time.perf_counter() - started, 2)
             summaries.append(result.summary)
         except UserError as exc:
             if len(files) == 1:
@@ -356,7 +359,10 @@ def reconstruct(cfg, domain: str, input_path: Path, out_dir: Path, checkpoint: P
     if len(files) == 1:
         return summaries[0]
     done = [s for s in summaries if "error" not in s]
+    seconds = [s["seconds"] for s in done]
     return {"inputs": len(files), "reconstructed": len(done), "failed": len(files) - len(done),
+            "seconds_median": float(np.median(seconds)) if seconds else None,
+            "seconds_range": [min(seconds), max(seconds)] if seconds else None,
             "page": str(out_dir / "index.html")}
 
 
