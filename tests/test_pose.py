@@ -2,6 +2,8 @@
 the up axis found on program shapes turned every way (accuracy per domain: see the numbers
 that scripts/fit_up_weights.py measure prints; the thresholds here sit below them)."""
 
+import math
+
 import numpy as np
 import pytest
 
@@ -129,3 +131,25 @@ def test_a_mesh_is_normalised_by_its_vertices_as_the_dataset_is():
     samples = surface_points(Geometry(None, None, mesh, "mesh"), 2000, np.random.default_rng(0))
     p = pose.find_pose(samples, up="z", extent=mesh.vertices)
     assert np.allclose(p.to_canonical(mesh.vertices), normalise_unit_sphere(mesh).vertices)
+
+
+def test_any_turn_of_a_shape_reaches_the_same_frame_up_to_a_quarter_turn():
+    """The level turn squares the surface to the axes, so a turned input and the input give
+    the same canonical cloud, but for a quarter-turn (which the front search covers)."""
+    import trimesh
+    from scipy.spatial import cKDTree
+
+    shape = trimesh.util.concatenate([trimesh.creation.box((0.6, 1.2, 0.1)),
+                                      trimesh.creation.box((0.1, 0.1, 1.0)).apply_translation((0.25, 0.5, -0.5)),
+                                      trimesh.creation.cylinder(0.05, 0.8).apply_translation((-0.2, 0, 0.4))])
+    base = trimesh.sample.sample_surface(shape, 6000, seed=1)[0]
+    square = pose.find_pose(base, up="z")
+    assert abs(square.turn) < 1.0
+    reference = square.to_canonical(base)
+    for degrees in (90.0, 137.0, 200.0, 333.3):
+        turned = base @ pose.turn_z(degrees).T
+        found = pose.find_pose(turned, up="z")
+        assert abs(math.remainder(found.turn + degrees, 90.0)) < 1.0, degrees
+        canonical = found.to_canonical(turned)
+        gaps = [cKDTree(reference).query(canonical @ pose.turn_z(90.0 * k).T)[0].max() for k in range(4)]
+        assert min(gaps) < math.radians(pose.LEVEL_SNAP), degrees   # the snap of an unturned shape

@@ -31,6 +31,9 @@ TRIM = 0.5                 # percent cut at each end of a range: outliers do not
 SLAB = 0.06                # the bottom or top slab: this share of the height
 HEIGHT_BINS = 8            # mass profile along a candidate up axis
 ROBUST_RADIUS = 99.0       # percentile of the radii that is 1 in the robust normalisation
+LEVEL_POINTS = 8000        # level_turn looks at this many points (subsampled, seeded) ...
+LEVEL_NEIGHBOURS = 10      # ... and fits a plane to each one's nearest
+LEVEL_SNAP = 1.0           # degrees: a shape this near square to the axes is left as it is
 
 
 def axis_rotation(label: str) -> np.ndarray:
@@ -279,16 +282,52 @@ def apply(matrix: np.ndarray, points: np.ndarray) -> np.ndarray:
     return pts @ matrix[:3, :3].T + matrix[:3, 3]
 
 
+def level_turn(points: np.ndarray, seed: int = 0) -> float:
+    """The turn (degrees, in (-45, 45]) about +Z that squares the surface to the axes: most
+    faces of furniture (seat, back, doors, legs) face along two horizontal axes at right
+    angles, so the fourth circular moment of the surface normals' horizontal parts,
+    sum h^2 e^(4 i phi) (h, phi: their length and direction; sampled uniformly over the area,
+    near-horizontal faces count little), points along one of them. Normals come from the
+    local planes of the points (LEVEL_NEIGHBOURS nearest of a seeded subsample), so a cloud
+    needs no faces. Turning the input by minus it first makes `reconstruct` blind to how the
+    input was turned: any turn of the same shape reaches the same frame up to a quarter-turn,
+    which the front search covers. Furniture square to its axes (within LEVEL_SNAP) stays as
+    it is (0), so that a file in the dataset's own pose is read exactly as the dataset is."""
+    pts = np.asarray(points, dtype=np.float64)
+    if len(pts) > LEVEL_POINTS:
+        pts = pts[generator(seed, "pose", "level").choice(len(pts), LEVEL_POINTS, replace=False)]
+    if len(pts) <= LEVEL_NEIGHBOURS:
+        return 0.0
+    near = pts[cKDTree(pts).query(pts, k=LEVEL_NEIGHBOURS)[1]]
+    near -= near.mean(axis=1, keepdims=True)
+    normals = np.linalg.eigh(np.einsum("nki,nkj->nij", near, near))[1][:, :, 0]
+    z = normals[:, 0] + 1j * normals[:, 1]
+    h2 = np.abs(z) ** 2
+    moment = np.sum(np.where(h2 > 1e-12, z ** 4 / np.maximum(h2, 1e-12), 0.0))
+    degrees = float(np.degrees(np.angle(moment) / 4)) if abs(moment) > 0 else 0.0
+    return 0.0 if abs(degrees) < LEVEL_SNAP else degrees
+
+
 def find_pose(points: np.ndarray, up: str = "auto", domain: str | None = None, robust: bool = False,
               seed: int = 0, extent: np.ndarray | None = None) -> Pose:
     """The pose that brings `points` (input frame, surface samples) Z-up into the unit
     sphere: up axis found (`up="auto"`, with `domain`'s weights) or given ("y", "-z", ...),
-    then centred and scaled by `normalise` in the turned frame (the bounding box taken Z-up,
-    as the dataset's is). `extent`: the points that set centre and scale instead, e.g. a
-    mesh's vertices, so that a mesh is normalised exactly as meshio.normalise_unit_sphere
-    does (its samples fall a little inside its vertices' box)."""
+    turned about it by minus `level_turn` (the pose's `turn`), then centred and scaled by
+    `normalise` in the turned frame (the bounding box taken Z-up, as the dataset's is).
+    `extent`: the points that set centre and scale instead, e.g. a mesh's vertices, so that a
+    mesh is normalised exactly as meshio.normalise_unit_sphere does (its samples fall a
+    little inside its vertices' box)."""
     pts = np.asarray(points, dtype=np.float64)
     rotation, label = up_axis(pts, domain, seed) if up == "auto" else (axis_rotation(up), up)
+    turn = -level_turn(pts @ rotation.T, seed)
+    rotation = turn_z(turn) @ rotation
     frame = pts if extent is None else np.asarray(extent, dtype=np.float64)
     _, centre_rot, scale = normalise(frame @ rotation.T, robust)
-    return Pose(rotation, rotation.T @ centre_rot, scale, label if label[:1] in "+-" else "+" + label)
+    return Pose(rotation, rotation.T @ centre_rot, scale, label if label[:1] in "+-" else "+" + label,
+                turn)
+
+
+def turn_z(degrees: float) -> np.ndarray:
+    """The rotation (3x3) by `degrees` about +Z."""
+    a = np.radians(degrees)
+    return np.array([[np.cos(a), -np.sin(a), 0.0], [np.sin(a), np.cos(a), 0.0], [0.0, 0.0, 1.0]])

@@ -73,6 +73,7 @@ def bench_span(overrides: list[str], domain: str, folder: Path, budget: int | No
         Reconstruction,
         Reconstructor,
         input_shape,
+        placement,
     )
 
     folder = Path(folder)
@@ -96,7 +97,7 @@ def bench_span(overrides: list[str], domain: str, folder: Path, budget: int | No
             shown = Reconstruction(path, geometry.kind, [answer], frame, geometry=geometry)
             entries.append(page.Entry(name=path.name, kind=geometry.kind, input=input_shape(shown),
                                       result=run.mesh(answer), after=answer.chamfer, seconds=seconds,
-                                      pose={"up": frame.pose.up, **answer.where.to_dict()},
+                                      pose={"up": frame.pose.up, **placement(frame, answer.where)},
                                       parameters=answer.values))
     if out is not None:
         page.write_page(entries, out, f"geocode bench span {domain}",

@@ -226,7 +226,7 @@ class Reconstructor:
                                      result.network)]
         best = result.answers[0]
         result.summary.update(
-            note=geometry.note, up=frame.pose.up, pose=best.where.to_dict(),
+            note=geometry.note, up=frame.pose.up, pose=placement(frame, best.where),
             chamfer_before=round(result.network, 6), chamfer_after=round(best.chamfer, 6),
             **({"evaluations": result.fit.evaluations} if result.fit else {}))
         return result
@@ -422,6 +422,14 @@ def pose_facts(result: Reconstruction) -> dict:
                 "scale": view.scale}
     if result.frame is None:
         return {}
-    return {"up": result.frame.pose.up, **result.answers[0].where.to_dict()}
+    return {"up": result.frame.pose.up, **placement(result.frame, result.answers[0].where)}
+
+
+def placement(frame: Frame, where: Pose) -> dict:
+    """Where the result sits: its turn about the up axis in the input's own frame (the
+    canonical frame is the input turned by `frame.pose.turn`), scale and offset."""
+    out = where.to_dict()
+    out["turn_deg"] = round((out["turn_deg"] - frame.pose.turn) % 360, 2)
+    return out
 
 
