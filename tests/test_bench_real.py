@@ -35,14 +35,19 @@ def folder(tmp_path_factory):
     return root
 
 
-def test_bench_real_scores_every_file_against_its_baselines(folder, capsys):
+def test_bench_real_scores_every_file_against_its_baselines_and_writes_their_pages(folder, tmp_path, capsys):
+    out = tmp_path / "bench"
     assert main(["bench", "real", str(folder), "--budget", "4", "--up-truth", str(folder / "up.yaml"),
-                 "--json", f"paths.runs={folder / 'runs'}"]) == 0
+                 "-o", str(out), "--json", f"paths.runs={folder / 'runs'}"]) == 0
     result = json.loads(capsys.readouterr().out.strip().splitlines()[-1])["vase"]
     assert result["shapes"] == 2 and result["up_agrees"].endswith("/2")
     for key in ("median_network", "median_fit", "median_defaults"):
         assert 0 < result[key] < 1
     assert {f["up_true"] for f in result["files"]} == {"+y", "+z"}
+    page = (out / "vase" / "index.html").read_text()
+    assert "turned.off" in page and "plain.stl" in page
+    assert all((out / "vase" / f"{stem}{s}").is_file() for stem in ("turned", "plain")
+               for s in (".yaml", ".obj", ".in-place.obj", ".blend"))
     card = (folder / "runs" / "vase" / "joint" / "README.md").read_text()
     assert "Real shapes (`geocode bench real`, 2 files)" in card
 

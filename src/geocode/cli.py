@@ -199,7 +199,9 @@ def parser() -> argparse.ArgumentParser:
     c.add_argument("domain", nargs="?", default="vase",
                    help=f"the domain ({', '.join(domains)}); real: the folder of <domain>/ subfolders")
     c.add_argument("folder", nargs="?", type=Path, help="span: the folder of real shapes")
-    c.add_argument("-o", "--output", type=output_folder, help="span: the folder of its page")
+    c.add_argument("-o", "--output", type=output_folder,
+                   help="real, span: the folder of their pages (real: also each file's outputs, "
+                        "timed with the rest)")
     c.add_argument("--up-truth", type=Path, help="real: YAML {file pattern: up axis} for the baselines "
                                                  "and the up axis agreement")
     c.add_argument("--budget", type=at_most(5000, "program evaluations", "the fit's curve flattens well "
@@ -401,7 +403,7 @@ def cmd_bench(args):
     if args.stage == "real":
         from geocode.bench.real import bench_real, real_table
 
-        result = bench_real(args.overrides, args.domain, args.up_truth, args.budget)
+        result = bench_real(args.overrides, args.domain, args.up_truth, args.budget, args.output)
         return result if args.json else real_table(result)
     if args.stage == "span":
         from geocode.bench.span import bench_span

@@ -11,6 +11,10 @@ directions / 2):
     defaults   the program's default shape, at the best of four quarter-turns
     nearest    the nearest training shape (`geocode.retrieval`), at the best of four quarter-turns
 
+With `out`, each file's outputs are written as `geocode reconstruct -o` writes them (result
+.yaml/.obj/.blend, pictures), with a page per domain (`<out>/<domain>/index.html`), and the
+seconds include them.
+
 The two baselines are given the true up axis where `up_truth` names it (a YAML mapping of file
 name patterns to axes, first match wins, e.g. `{"*.off": z, "*": y}`), else the one found.
 """
@@ -50,24 +54,29 @@ def true_up(name: str, table: list[tuple[str, str]]) -> str | None:
 
 
 def bench_real(overrides: list[str], folder: Path, up_truth: Path | None = None,
-               budget: int | None = None) -> dict:
+               budget: int | None = None, out: Path | None = None) -> dict:
     """Per domain subfolder: the medians of the four distances, their ratios to the nearest
     training shape, seconds per shape and how often the up axis found is the true one."""
+    from geocode import page
     from geocode.config import compose, registry
-    from geocode.tools.reconstruct import SUFFIXES, Reconstructor
+    from geocode.tools.reconstruct import PAGE_NOTE, SUFFIXES, Reconstructor
 
     folder, table = Path(folder), read_up_truth(up_truth)
     domains = [d for d in registry() if (folder / d).is_dir()]
     if not domains:
         raise UserError(folder, "no subfolder named after a domain", f"make {', '.join(registry())} subfolders")
-    out = {}
+    result = {}
     for domain in domains:
         files = sorted(p for p in (folder / domain).iterdir() if p.suffix.lower() in SUFFIXES)
         run = Reconstructor(compose([*overrides, f"domain={domain}"]), domain, refine=budget)
-        rows = [score_file(run, path, true_up(path.name, table)) for path in files]
-        out[domain] = summarise(rows)
-        record(run.checkpoint, out[domain])
-    return out
+        pages = None if out is None else Path(out) / domain
+        scored = [score_file(run, path, true_up(path.name, table), pages) for path in files]
+        if pages is not None:
+            page.write_page([entry for _, entry in scored], pages, f"geocode bench real: {domain}",
+                            note=PAGE_NOTE)
+        result[domain] = summarise([row for row, _ in scored])
+        record(run.checkpoint, result[domain])
+    return result
 
 
 def record(checkpoint: Path, numbers: dict) -> None:
@@ -81,9 +90,13 @@ def record(checkpoint: Path, numbers: dict) -> None:
     write_card(run)
 
 
-def score_file(run, path: Path, truth: str | None) -> dict:
+def score_file(run, path: Path, truth: str | None, out: Path | None = None) -> tuple[dict, object]:
+    """One file's scores, and its page entry where its outputs are written to `out`."""
+    from geocode.tools.reconstruct import write_outputs
+
     started = time.perf_counter()
     result = run(path)
+    entry = None if out is None else write_outputs(run, result, out / path.stem, out, path.name)
     seconds = time.perf_counter() - started
     up = run.up
     run.up = truth or result.frame.pose.up       # the baselines: the true up axis where known
@@ -92,9 +105,11 @@ def score_file(run, path: Path, truth: str | None) -> dict:
     defaults = min(run.score(frame, {}, turn) for turn in QUARTER_TURNS)
     nearest = (run.training.matches(frame.samples, 1)[0].chamfer
                if run.training is not None else math.nan)
+    if entry is not None:
+        entry.seconds = round(seconds, 2)
     return {"file": path.name, "network": result.network, "fit": result.answers[0].chamfer,
             "defaults": defaults, "nearest": nearest, "seconds": seconds,
-            "up": result.frame.pose.up, "up_true": truth}
+            "up": result.frame.pose.up, "up_true": truth}, entry
 
 
 def summarise(rows: list[dict]) -> dict:

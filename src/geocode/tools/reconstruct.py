@@ -47,6 +47,8 @@ UP_CANDIDATES = 2              # up axes tried with --up auto
 NEAREST = 3                    # nearest training shapes added to the starts
 TARGET_POINTS = 4096           # points of the input the fit compares with
 SCORE_POINTS = 10000           # points each of the reported (plain) Chamfer distances
+PAGE_NOTE = ("Chamfer distance to the input: unit sphere, squared, mean of both directions / 2;"
+             " drawings: mean distance between the strokes (px of 224), both ways / 2")
 
 
 def network_cloud(points: np.ndarray, points_cfg, rng: np.random.Generator) -> np.ndarray:
@@ -353,9 +355,7 @@ def reconstruct(cfg, domain: str, input_path: Path, out_dir: Path, checkpoint: P
         progress.step()
     if len(files) > 1:
         progress.finish()
-    page.write_page(entries, out_dir, f"geocode reconstruct {domain}",
-                    note="Chamfer distance to the input: unit sphere, squared, mean of both directions / 2;"
-                         " drawings: mean distance between the strokes (px of 224), both ways / 2")
+    page.write_page(entries, out_dir, f"geocode reconstruct {domain}", note=PAGE_NOTE)
     if len(files) == 1:
         return summaries[0]
     done = [s for s in summaries if "error" not in s]
