@@ -26,6 +26,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from geocode.meshio import normalise_unit_sphere
+from geocode.metrics import quick_tree
 from geocode.points import sample_surface
 
 FIT_POINTS = 2048    # points sampled on each candidate (fixed seed: a deterministic objective)
@@ -125,12 +126,6 @@ class CloudDistance:
         if self.trim == 0:
             return float((np.mean(to_target) + np.mean(to_shape)) / 2)
         return (trimmed_mean(to_target, self.trim) + trimmed_mean(to_shape, self.trim)) / 2
-
-
-def quick_tree(points: np.ndarray) -> cKDTree:
-    """A KD-tree built for one round of queries: unbalanced and not compacted, it builds in
-    half the time and answers the same."""
-    return cKDTree(points, balanced_tree=False, compact_nodes=False)
 
 
 def shape_points(program, values: Mapping[str, float], n: int = FIT_POINTS) -> np.ndarray:

@@ -10,6 +10,12 @@ from geocode.meshio import normalise_unit_sphere
 from geocode.points import sample_surface
 
 
+def quick_tree(points: np.ndarray) -> cKDTree:
+    """A KD-tree built for one round of queries: unbalanced and not compacted, it builds in
+    half the time and answers the same."""
+    return cKDTree(points, balanced_tree=False, compact_nodes=False)
+
+
 def chamfer(a_points: np.ndarray, b_points: np.ndarray, workers: int = -1) -> float:
     """CD = (mean_a min_b |a-b|^2 + mean_b min_a |a-b|^2) / 2 (squared distances).
 
@@ -20,8 +26,8 @@ def chamfer(a_points: np.ndarray, b_points: np.ndarray, workers: int = -1) -> fl
     b = np.asarray(b_points, dtype=np.float64).reshape(-1, 3)
     if len(a) == 0 or len(b) == 0:
         raise ValueError("chamfer: both clouds need at least one point")
-    d_ab = cKDTree(b).query(a, workers=workers)[0]
-    d_ba = cKDTree(a).query(b, workers=workers)[0]
+    d_ab = quick_tree(b).query(a, workers=workers)[0]
+    d_ba = quick_tree(a).query(b, workers=workers)[0]
     return float((np.mean(d_ab**2) + np.mean(d_ba**2)) / 2)
 
 
