@@ -102,6 +102,21 @@ def test_fit_recovers_the_parameters_and_the_count():
     assert result.after < 1.0 < result.before
 
 
+def test_fit_keeps_the_trained_view_where_a_quarter_turn_draws_nearly_as_well():
+    """A box of width 1.0 and depth 0.9 drawn from azimuth 55 is also a box of width 0.9 and
+    depth 1.0 drawn from -35. From a start between the two (0.94 x 0.96), the view of -35 draws
+    0.9 px nearer (within VIEW_MARGIN), so the fit stays with the trained view and finds the
+    width and depth as drawn, in the program's frame."""
+    truth = {"width": 1.0, "depth": 0.9, "count": 1.0}
+    drawing = boxes_drawing(truth, View(55.0, 30.0))
+    start = Start({"width": 0.94, "depth": 0.96, "count": 1.0}, {"count": [1.0]})
+    result = fit_drawing(BOXES, BOXES, [start], drawing, budget=120, seed=0,
+                         guesses=((55.0, 30.0), (-35.0, 30.0)))
+    assert result.camera.azimuth == pytest.approx(55.0, abs=5)
+    assert result.values["width"] > result.values["depth"]
+    assert result.values["width"] == pytest.approx(1.0, abs=0.06)
+
+
 def test_fit_is_deterministic_and_never_worse_than_its_start():
     values = {"width": 1.0, "depth": 0.6, "count": 3.0}
     drawing = boxes_drawing(values, View(70.0, 15.0))
