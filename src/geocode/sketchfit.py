@@ -18,17 +18,16 @@ ones counting VIEW_MARGIN px more: the network answers as if the drawing came fr
 a view a quarter-turn away draws a shape of swapped width and depth alike, which the search
 cannot tell apart from the drawing but the program's frame can (on the table test sketches
 this took the fit from 0.92x to 0.43x of the network's distance). From the best RESTARTS of
-them the search then goes, for each step of STEPS: every discrete parameter's other choices one at a time, then every
-continuous parameter and camera coordinate +-step one at a time, keeping what helps
-(coordinate sweeps: one parameter mostly moves one part of the drawing, and the network's
-answer is near, so single moves judged alone beat a population of 60-dimensional random
-moves at these budgets); then CMA-ES with per-coordinate steps on everything with what is
-left. The objective adds to the drawing distance PRIOR * |x - x0|^2 over the parameters'
+them the search then goes, for each step of STEPS: every discrete parameter's other choices
+one at a time, then every continuous parameter and camera coordinate +-step one at a time,
+keeping what helps (coordinate sweeps: one parameter mostly moves one part of the drawing,
+and the network's answer is near, so single moves judged alone beat a population of
+60-dimensional random moves at these budgets); then CMA-ES with per-coordinate steps on
+everything with what is left. The objective adds to the drawing distance PRIOR * |x - x0|^2 over the parameters'
 unit-box coordinates (x0: the start's): one view leaves depth undecided, and where the
 drawing does not tell, the network's answer should stand (on chair test sketches it took the
 fitted Chamfer distance from 0.7x to about 0.5x of the network's). The best shape seen is
-the answer, so the fit never ends farther from the drawing than
-its best start.
+the answer, so the fit never ends farther from the drawing than the start it searched from.
 """
 
 from __future__ import annotations
