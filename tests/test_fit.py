@@ -77,6 +77,17 @@ class TestFitOnAProgram:
         assert result.curve == sorted(result.curve, reverse=True)   # best so far, per evaluation
         assert len(result.curve) == result.evaluations == 60
 
+    def test_helper_processes_give_the_same_fit(self, vase):
+        """Candidates scored in a helper process (its own Blender) beside this one: the same
+        distances in the same order, so the same fit."""
+        from geocode.fit import fit
+
+        program, recipe = vase
+        target = self.target(vase, Pose(turn=0.2, scale=0.95))
+        alone, shared = (fit(program, recipe, [Start(dict(self.SHAPE))], target, budget=40, seed=0,
+                             helpers=helpers) for helpers in (0, 1))
+        assert shared.curve == alone.curve and shared.values == alone.values and shared.pose == alone.pose
+
     def test_restarts_begin_at_the_best_scored_start(self, vase):
         from geocode.fit import fit
 

@@ -167,6 +167,8 @@ def parser() -> argparse.ArgumentParser:
     c.add_argument("--up", default="auto", help="the input's up axis: auto (found), or x, y, z, -x, -y, -z")
     c.add_argument("--candidates", type=at_most(8, "answers", "more are rarely distinct", low=1), default=1,
                    help="write the K best distinct fitted programs (ranked on the page)")
+    c.add_argument("--workers", type=at_most(64, "processes", "one per core is enough", low=1),
+                   help="processes that evaluate the fit's candidates, this one included (default: one per core)")
     c.add_argument("--json", action="store_true")
     c.set_defaults(run=cmd_reconstruct)
 
@@ -342,7 +344,7 @@ def cmd_reconstruct(args):
     cfg = step_config(args, f"domain={args.domain}")
     return reconstruct(cfg, args.domain, args.input, args.output, checkpoint=args.checkpoint,
                        refine=args.refine, up=args.up, candidates=args.candidates,
-                       recursive=args.recursive)
+                       recursive=args.recursive, workers=args.workers)
 
 
 def cmd_mix(args):

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import math
 import time
+import uuid
 import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -192,44 +193,117 @@ def align(points: np.ndarray, distance: CloudDistance, pose: Pose,
     return Pose(turn=turn, scale=scale, offset=pose.offset)
 
 
+def score(program, distance: CloudDistance, pose: bool, values: Mapping[str, float],
+          turn: float) -> tuple[float, Pose]:
+    """One candidate's distance to the target and where it sits: sampled, aligned (with
+    `pose`, else at its start's turn) and measured; inf for a combination the program refuses."""
+    where = Pose(turn=turn)
+    try:
+        points = shape_points(program, values)
+    except ValueError:
+        return math.inf, where
+    where = align(points, distance, where) if pose else where
+    return distance(where.apply(points)), where
+
+
+class Scorer:
+    """Scores batches of candidates (values, turn) against one target. With `helpers` > 0 a
+    batch is shared out between this process and as many helper processes (`helper_pool`),
+    each with its own Blender and program: the same numbers, in the same order, sooner."""
+
+    def __init__(self, program, distance: CloudDistance, pose: bool, helpers: int = 0):
+        self.program, self.distance, self.pose = program, distance, pose
+        self.helpers = helpers
+        self.pool = helper_pool(program.domain, helpers) if helpers > 0 else None
+        self.token = uuid.uuid4().hex     # which target the helpers' cached distance is for
+
+    def __call__(self, batch: list[tuple[dict, float]]) -> list[tuple[float, Pose]]:
+        if self.pool is None or len(batch) < 2:
+            return [score(self.program, self.distance, self.pose, v, t) for v, t in batch]
+        parts = np.array_split(np.arange(len(batch)), self.helpers + 1)
+        futures = [self.pool.submit(_helper_score, self.token, self.distance.target, self.distance.trim,
+                                    self.pose, [batch[k] for k in part]) for part in parts[1:] if len(part)]
+        mine = [score(self.program, self.distance, self.pose, *batch[k]) for k in parts[0]]
+        return mine + [r for f in futures for r in f.result()]
+
+
+_POOLS: dict[tuple[str, int], object] = {}
+_HELPER: dict = {}    # in a helper process: its program, and the distance of the last target
+
+
+def helper_pool(domain: str, helpers: int):
+    """`helpers` processes (started once, kept for the session) that score candidates of the
+    domain's program. They start in the background: `warm` them before they are needed."""
+    from concurrent.futures import ProcessPoolExecutor
+    from multiprocessing import get_context
+
+    key = (domain, helpers)
+    if key not in _POOLS:   # spawn: a fork would copy this process's Blender and its threads
+        pool = ProcessPoolExecutor(helpers, mp_context=get_context("spawn"),
+                                   initializer=_helper_start, initargs=(domain,))
+        for _ in range(helpers):
+            pool.submit(int)   # starts each process now, not at the first batch
+        _POOLS[key] = pool
+    return _POOLS[key]
+
+
+def _helper_start(domain: str) -> None:
+    import sys
+    from pathlib import Path
+
+    from geocode.program import Program
+
+    # A spawned process gets the sys.path of its parent, where Blender, once imported, put
+    # its scripts/modules: their Python-side `bpy` package would shadow the module itself.
+    sys.path[:] = [p for p in sys.path if not (Path(p) / "bpy" / "__init__.py").exists()]
+    _HELPER["program"] = Program.load(domain)
+
+
+def _helper_score(token: str, target: np.ndarray, trim: float, pose: bool,
+                  batch: list[tuple[dict, float]]) -> list[tuple[float, Pose]]:
+    if _HELPER.get("token") != token:
+        _HELPER["token"], _HELPER["distance"] = token, CloudDistance(target, trim)
+    return [score(_HELPER["program"], _HELPER["distance"], pose, v, t) for v, t in batch]
+
+
 def fit(program, recipe, starts: Sequence[Start], target: np.ndarray, budget: int,
         seed: int = 0, trim: float = TRIM, restarts: int = RESTARTS,
-        pose: bool = True) -> FitResult:
+        pose: bool = True, helpers: int = 0) -> FitResult:
     """Search at most `budget` program evaluations for the shape nearest `target` (N, 3), a
     cloud on the unit sphere with +Z up; with `pose`, each candidate is first aligned to the
     target (`align`), else it keeps its start's turn. Every start is scored first; CMA-ES then
-    runs from the best `restarts` of them, sharing what is left of the budget."""
+    runs from the best `restarts` of them, sharing what is left of the budget. `helpers`:
+    processes that score candidates beside this one (`Scorer`)."""
     started = time.perf_counter()
-    distance = CloudDistance(target, trim)
+    scorer = Scorer(program, CloudDistance(target, trim), pose, helpers)
     spaces = [SearchSpace(recipe, Start(program.check(s.values), s.options, s.turn))
               for s in starts[:max(1, budget)]]
     curve: list[float] = []
     found: dict[int, tuple[float, np.ndarray, Pose]] = {}   # start -> its best (f, x, pose)
 
-    def objective(i: int, x: np.ndarray) -> float:
+    def objective(i: int, xs: Sequence[np.ndarray]) -> list[float]:
+        """The distances of candidates `xs` of start i (inf where the recipe's rules fail)."""
         space = spaces[i]
-        values, where, value = space.values(np.asarray(x)), Pose(turn=space.start.turn), np.inf
-        if recipe.satisfies(values):
-            try:
-                points = shape_points(program, values)
-            except ValueError:   # a combination the program refuses
-                points = None
-            if points is not None:
-                where = align(points, distance, where) if pose else where
-                value = distance(where.apply(points))
-        if value < found.get(i, (np.inf,))[0]:
-            found[i] = (value, np.asarray(x), where)
-        curve.append(min(value, curve[-1]) if curve else value)
-        return value
+        values = [space.values(np.asarray(x)) for x in xs]
+        valid = [k for k, v in enumerate(values) if recipe.satisfies(v)]
+        scored = dict(zip(valid, scorer([(values[k], space.start.turn) for k in valid]), strict=True))
+        out = []
+        for k, x in enumerate(xs):
+            value, where = scored.get(k, (math.inf, Pose(turn=space.start.turn)))
+            if value < found.get(i, (np.inf,))[0]:
+                found[i] = (value, np.asarray(x), where)
+            curve.append(min(value, curve[-1]) if curve else value)
+            out.append(value)
+        return out
 
-    scores = [objective(i, space.x0()) for i, space in enumerate(spaces)]
+    scores = [objective(i, [space.x0()])[0] for i, space in enumerate(spaces)]
     order = np.argsort(scores, kind="stable")
     best_i, best_x = int(order[0]), spaces[order[0]].x0()
     before = best = float(scores[best_i])
     runs = order[:max(1, min(restarts, len(order)))]
     for r, i in enumerate(runs):
         share = (budget - len(curve)) // (len(runs) - r)
-        x, f = cma_search(lambda x, i=int(i): objective(i, x), spaces[i].x0(), share, seed + r)
+        x, f = cma_search(lambda xs, i=int(i): objective(i, xs), spaces[i].x0(), share, seed + r)
         if f < best:
             best, best_x, best_i = f, x, int(i)
     runs_found = [(spaces[i].values(found[i][1]), found[i][2]) for i in runs if i in found]
@@ -240,8 +314,9 @@ def fit(program, recipe, starts: Sequence[Start], target: np.ndarray, budget: in
 
 def cma_search(objective, x0: np.ndarray, budget: int, seed: int,
                stds: np.ndarray | None = None) -> tuple[np.ndarray, float]:
-    """The best (x, f) CMA-ES finds within `budget` evaluations of `objective` (inf for an
-    invalid shape) from x0 in the unit box; initial step SIGMA, or `stds` per coordinate."""
+    """The best (x, f) CMA-ES finds within `budget` evaluations from x0 in the unit box;
+    `objective` takes a generation's candidates and gives their values (inf for an invalid
+    shape). Initial step SIGMA, or `stds` per coordinate."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")   # cma warns that matplotlib (plots only) is missing
         import cma
@@ -256,13 +331,12 @@ def cma_search(objective, x0: np.ndarray, budget: int, seed: int,
     es = cma.CMAEvolutionStrategy(x0, SIGMA if stds is None else 1.0, options)
     while used < budget and not es.stop():
         xs = es.ask()
-        fs = []
-        for x in xs[: budget - used]:
-            fs.append(objective(x))
-            if fs[-1] < best:
-                best, best_x = fs[-1], np.asarray(x)
+        fs = objective(xs[: budget - used])   # the budget may end inside a generation
         used += len(fs)
-        if len(fs) < len(xs):   # the budget ends inside this generation
+        k = int(np.argmin(fs))
+        if fs[k] < best:
+            best, best_x = fs[k], np.asarray(xs[k])
+        if len(fs) < len(xs):
             break
         es.tell(xs, [f if np.isfinite(f) else 1e9 for f in fs])
     return best_x, best

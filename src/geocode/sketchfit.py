@@ -213,7 +213,7 @@ def fit_drawing(program, recipe, starts: Sequence[Start], drawing: np.ndarray,
                                     budget - len(curve), step)
         share = (budget - len(curve)) // (len(runs) - r)
         stds = np.concatenate([np.full(len(x) - 6, SIGMA), CAMERA_SIGMA])
-        y, g = cma_search(lambda x, i=int(i): objective(i, x), x, share, seed + r, stds)
+        y, g = cma_search(lambda xs, i=int(i): [objective(i, x) for x in xs], x, share, seed + r, stds)
         x, f = (y, g) if g < f else (x, f)
         if f < best:
             best, best_x, best_i = f, x, int(i)

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import logging
 import math
+import os
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -30,7 +31,7 @@ from scipy import ndimage
 
 from geocode import pose as poses
 from geocode.errors import UserError
-from geocode.fit import CloudDistance, FitResult, Pose, Start, fit, network_starts, shape_points
+from geocode.fit import CloudDistance, FitResult, Pose, Start, fit, helper_pool, network_starts, shape_points
 from geocode.inputs import CLOUD_SUFFIXES, MESH_SUFFIXES, Geometry, read_geometry, surface_points
 from geocode.meshio import normalise_unit_sphere
 from geocode.points import farthest_point_sampling
@@ -143,7 +144,8 @@ class Reconstructor:
     """What every input of one run shares: the program, the model, the training shapes."""
 
     def __init__(self, cfg, domain: str, checkpoint: Path | None = None,
-                 refine: int | None = None, up: str = "auto", candidates: int = 1, model: bool = True):
+                 refine: int | None = None, up: str = "auto", candidates: int = 1, model: bool = True,
+                 workers: int | None = None):
         from geocode import paths
         from geocode.checkpoints import default_checkpoint, load_model
         from geocode.program import Program
@@ -158,6 +160,11 @@ class Reconstructor:
         self.model = self.training = None
         if not model:                             # the pose and the scores alone (bench span)
             return
+        # processes beside this one that score the fit's candidates: started now, so that
+        # their Blender loads while the network and the training shapes do
+        self.helpers = (len(os.sched_getaffinity(0)) if workers is None else workers) - 1
+        if self.refine > 0 and self.helpers > 0:
+            helper_pool(domain, self.helpers)
         self.checkpoint = checkpoint or default_checkpoint(cfg, domain)
         if not self.checkpoint.is_file():
             raise UserError(
@@ -219,7 +226,8 @@ class Reconstructor:
         result.network = self.score(frame, network_start.values, s_pose(network_start))
         if self.refine > 0:   # the fit
             result.fit = fit(self.program, self.recipe, starts[i], frame.samples[:TARGET_POINTS],
-                             self.refine, seed=self.cfg.seed, restarts=max(2, self.candidates))
+                             self.refine, seed=self.cfg.seed, restarts=max(2, self.candidates),
+                             helpers=self.helpers)
             fitted = [Answer(v, w, self.score(frame, v, w)) for v, w in result.fit.found]
             network = Answer(self.program.check(network_start.values), s_pose(network_start), result.network)
             result.answers = distinct_answers([*fitted, network], self.candidates)
@@ -324,7 +332,7 @@ def inputs_of(path: Path, recursive: bool) -> list[Path]:
 
 def reconstruct(cfg, domain: str, input_path: Path, out_dir: Path, checkpoint: Path | None = None,
                 refine: int | None = None, up: str = "auto", candidates: int = 1,
-                recursive: bool = False) -> dict:
+                recursive: bool = False, workers: int | None = None) -> dict:
     """Reconstruct one input file, or every input of a folder, into `out_dir`: per input
     <name>.yaml, .obj, .in-place.obj (3D inputs), .png and .blend (all of them, or none where
     that input fails), and `index.html` + `summary.csv` over all inputs."""
@@ -333,7 +341,7 @@ def reconstruct(cfg, domain: str, input_path: Path, out_dir: Path, checkpoint: P
 
     files = inputs_of(Path(input_path), recursive)
     root = Path(input_path) if Path(input_path).is_dir() else Path(input_path).parent
-    run = Reconstructor(cfg, domain, checkpoint, refine, up, candidates)
+    run = Reconstructor(cfg, domain, checkpoint, refine, up, candidates, workers=workers)
     progress = Progress(f"reconstruct {domain}", len(files), log, every=0.0 if len(files) > 1 else 1e9)
     entries, summaries = [], []
     for path in files:
