@@ -168,7 +168,7 @@ def parser() -> argparse.ArgumentParser:
     c.add_argument("--candidates", type=at_most(8, "answers", "more are rarely distinct", low=1), default=1,
                    help="write the K best distinct fitted programs (ranked on the page)")
     c.add_argument("--workers", type=at_most(64, "processes", "one per core is enough", low=1),
-                   help="processes that evaluate the fit's candidates, this one included (default: one per core)")
+                   help="processes that evaluate the fit's candidates, this one included (default: one per core, at most 8)")
     c.add_argument("--json", action="store_true")
     c.set_defaults(run=cmd_reconstruct)
 

@@ -47,6 +47,7 @@ TURNS = 8                      # turns about the up axis at which the network se
 UP_CANDIDATES = 2              # up axes tried with --up auto
 NEAREST = 3                    # nearest training shapes added to the starts
 TARGET_POINTS = 4096           # points of the input the fit compares with
+WORKERS = 8                    # default processes of the fit at most (a CMA-ES generation: 12-17 candidates)
 SCORE_POINTS = 10000           # points each of the reported (plain) Chamfer distances
 PAGE_NOTE = ("Chamfer distance to the input: unit sphere, squared, mean of both directions / 2;"
              " drawings: mean distance between the strokes (px of 224), both ways / 2")
@@ -162,7 +163,7 @@ class Reconstructor:
             return
         # processes beside this one that score the fit's candidates: started now, so that
         # their Blender loads while the network and the training shapes do
-        self.helpers = (len(os.sched_getaffinity(0)) if workers is None else workers) - 1
+        self.helpers = (min(len(os.sched_getaffinity(0)), WORKERS) if workers is None else workers) - 1
         if self.refine > 0 and self.helpers > 0:
             helper_pool(domain, self.helpers)
         self.checkpoint = checkpoint or default_checkpoint(cfg, domain)
