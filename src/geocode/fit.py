@@ -232,8 +232,9 @@ _HELPER: dict = {}    # in a helper process: its program, and the distance of th
 
 
 def helper_pool(domain: str, helpers: int):
-    """`helpers` processes (started once, kept for the session) that score candidates of the
-    domain's program. They start in the background: `warm` them before they are needed."""
+    """`helpers` processes that score candidates of the domain's program, kept for the rest of
+    this process. They start at the first call, in the background (Blender and the program
+    load in a few seconds): call it early."""
     from concurrent.futures import ProcessPoolExecutor
     from multiprocessing import get_context
 
