@@ -2,16 +2,6 @@
 # trains on a GPU where there is one.
 
 
-def training_threads(wildcards):
-    """Half the cores: two trainings side by side at one thread each finish 20% sooner than
-    one after the other at two (docs/fidelity.md, Time). A cluster run gives no --cores
-    (each job gets its own node): there a training asks for 2."""
-    try:
-        return max(1, workflow.cores // 2)
-    except WorkflowError:
-        return 2
-
-
 rule train:
     input:
         dataset=str(paths.dataset_done(CFG, "{domain}")),
