@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 import trimesh
+
 from geocode.meshio import normalise_unit_sphere, read_obj
 from geocode.metrics import chamfer
 from geocode.points import load_clouds, sample_surface

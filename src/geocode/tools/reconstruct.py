@@ -31,7 +31,16 @@ from scipy import ndimage
 
 from geocode import pose as poses
 from geocode.errors import UserError
-from geocode.fit import CloudDistance, FitResult, Pose, Start, fit, helper_pool, network_starts, shape_points
+from geocode.fit import (
+    CloudDistance,
+    FitResult,
+    Pose,
+    Start,
+    fit,
+    helper_pool,
+    network_starts,
+    shape_points,
+)
 from geocode.inputs import CLOUD_SUFFIXES, MESH_SUFFIXES, Geometry, read_geometry, surface_points
 from geocode.meshio import normalise_unit_sphere
 from geocode.points import farthest_point_sampling
