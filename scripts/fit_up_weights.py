@@ -2,6 +2,7 @@
 
     python scripts/fit_up_weights.py fit        # prints WEIGHTS for geocode/pose.py
     python scripts/fit_up_weights.py measure    # accuracy on fresh shapes, 6 up directions
+    python scripts/fit_up_weights.py measure turned   # the same, each also turned about its up
     python scripts/fit_up_weights.py real DIR   # accuracy on DIR/<domain>/<file> (README's up)
 
 Shapes: random parameters (seeds 1000+i for fitting, 5000+i for measuring, so the measure is
@@ -65,7 +66,7 @@ def fit():
     X, Y, G = [], [], []
     for d in DOMAINS:
         for p, label in cases(d, range(1000, 1020), lambda i, j: [rots[(i * 4 + j * 7 + k * 5) % 24] for k in range(3)]):
-            X.append(pose.axis_features(p[np.random.default_rng(0).choice(len(p), min(3000, len(p)), replace=False)]))
+            X.append(pose.up_features(p[np.random.default_rng(0).choice(len(p), min(3000, len(p)), replace=False)]))
             Y.append(pose.AXES.index(label))
             G.append(d)
     X, Y, G = np.array(X), np.array(Y), np.array(G)
@@ -82,19 +83,33 @@ def fit():
     print("}")
 
 
-def measure():
+def measure(turned=False):
     """Per domain: 20 fresh shapes x 6 up directions x 4 kinds, with the domain's weights
-    and with the general ones."""
+    and with the general ones, and how often the truth is among the domain's two likeliest
+    (`reconstruct --up auto` tries both); `turned`: each turned about its up axis by a random angle
+    (not a quarter-turn) first, as a file whose front is off its axes."""
     ups = [pose.axis_rotation(a).T for a in pose.AXES]   # brings +z to each axis
     turn = pose.turns(4)
+
+    def rotations(i, j):
+        if turned:
+            angles = np.random.default_rng([i, j]).uniform(10, 80, len(ups)) + 90 * ((i + j) % 4)
+            return [u @ pose.turn_z(a) for u, a in zip(ups, angles)]
+        return [u @ turn[(i + j) % 4] for u in ups]
+
     for d in DOMAINS:
-        hits = {"domain": {k: [] for k in KINDS}, "general": {k: [] for k in KINDS}}
-        for n, (p, label) in enumerate(cases(d, range(5000, 5020), lambda i, j: [u @ turn[(i + j) % 4] for u in ups])):
+        hits = {which: {k: [] for k in KINDS} for which in ("domain", "general", "domain top 2")}
+        for n, (p, label) in enumerate(cases(d, range(5000, 5020), rotations)):
             kind = KINDS[(n // 6) % 4]
-            hits["domain"][kind].append(pose.up_axis(p, d)[1] == label)
-            hits["general"][kind].append(pose.up_axis(p)[1] == label)
+            sample = p[np.random.default_rng(0).choice(len(p), min(pose.FEATURE_POINTS, len(p)), replace=False)]
+            features = pose.up_features(sample)
+            for which, w in (("domain", pose.WEIGHTS[d]), ("general", pose.WEIGHTS[""])):
+                ranked = [pose.AXES[i] for i in np.argsort(-(features @ np.asarray(w)), kind="stable")]
+                hits[which][kind].append(ranked[0] == label)
+                if which == "domain":
+                    hits["domain top 2"][kind].append(label in ranked[:2])
         for which, h in hits.items():
-            print(f"{d:13s} {which:8s}", "  ".join(f"{k} {np.mean(v):.2f}" for k, v in h.items()),
+            print(f"{d:13s} {which:12s}", "  ".join(f"{k} {np.mean(v):.2f}" for k, v in h.items()),
                   f"  all {np.mean(sum(h.values(), [])):.2f}", flush=True)
 
 
@@ -116,4 +131,5 @@ def real(folder):
     print(", ".join(f"{k} {v}/{len(files)}" for k, v in ok.items()))
 
 if __name__ == "__main__":
-    {"fit": fit, "measure": measure, "real": lambda: real(sys.argv[2])}[sys.argv[1]]()
+    {"fit": fit, "measure": lambda: measure(sys.argv[2:] == ["turned"]),
+     "real": lambda: real(sys.argv[2])}[sys.argv[1]]()

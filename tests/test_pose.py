@@ -153,3 +153,22 @@ def test_any_turn_of_a_shape_reaches_the_same_frame_up_to_a_quarter_turn():
         canonical = found.to_canonical(turned)
         gaps = [cKDTree(reference).query(canonical @ pose.turn_z(90.0 * k).T)[0].max() for k in range(4)]
         assert min(gaps) < math.radians(pose.LEVEL_SNAP), degrees   # the snap of an unturned shape
+
+
+def test_up_features_do_not_change_when_a_file_turns_its_shape_about_the_up_axis():
+    """The file's up may be any of its axes and the shape turned about it by any angle: the
+    features of the true up axis are those of the square file (raw ones see the diagonals)."""
+    import trimesh
+
+    shape = trimesh.util.concatenate([trimesh.creation.box((0.6, 1.2, 0.1)),
+                                      trimesh.creation.box((0.1, 0.1, 1.0)).apply_translation((0.25, 0.5, -0.5)),
+                                      trimesh.creation.cylinder(0.05, 0.8).apply_translation((-0.2, 0, 0.4))])
+    base = trimesh.sample.sample_surface(shape, 3000, seed=1)[0]
+    assert np.allclose(pose.square_rotation(base), np.eye(3))   # a square file stays as it is
+    square = pose.up_features(base)[pose.AXES.index("+z")]
+    for degrees in (137.0, 200.0):
+        for up in ("+x", "-y", "+z"):
+            points = base @ (pose.axis_rotation(up).T @ pose.turn_z(degrees)).T
+            row = pose.AXES.index(up)
+            assert np.abs(pose.up_features(points)[row] - square).max() < 0.01, (degrees, up)
+            assert np.abs(pose.axis_features(points)[row] - square).max() > 0.05   # what it fixes

@@ -282,29 +282,30 @@ def fit(program, recipe, starts: Sequence[Start], target: np.ndarray, budget: in
     curve: list[float] = []
     found: dict[int, tuple[float, np.ndarray, Pose]] = {}   # start -> its best (f, x, pose)
 
-    def objective(i: int, xs: Sequence[np.ndarray]) -> list[float]:
-        """The distances of candidates `xs` of start i (inf where the recipe's rules fail)."""
-        space = spaces[i]
-        values = [space.values(np.asarray(x)) for x in xs]
+    def evaluate(candidates: Sequence[tuple[int, np.ndarray]]) -> list[float]:
+        """The distances of candidates (start i, x), scored in one batch (inf where the
+        recipe's rules fail)."""
+        values = [spaces[i].values(np.asarray(x)) for i, x in candidates]
         valid = [k for k, v in enumerate(values) if recipe.satisfies(v)]
-        scored = dict(zip(valid, scorer([(values[k], space.start.turn) for k in valid]), strict=True))
+        batch = [(values[k], spaces[candidates[k][0]].start.turn) for k in valid]
+        scored = dict(zip(valid, scorer(batch), strict=True))
         out = []
-        for k, x in enumerate(xs):
-            value, where = scored.get(k, (math.inf, Pose(turn=space.start.turn)))
+        for k, (i, x) in enumerate(candidates):
+            value, where = scored.get(k, (math.inf, Pose(turn=spaces[i].start.turn)))
             if value < found.get(i, (np.inf,))[0]:
                 found[i] = (value, np.asarray(x), where)
             curve.append(min(value, curve[-1]) if curve else value)
             out.append(value)
         return out
 
-    scores = [objective(i, [space.x0()])[0] for i, space in enumerate(spaces)]
+    scores = evaluate([(i, space.x0()) for i, space in enumerate(spaces)])
     order = np.argsort(scores, kind="stable")
     best_i, best_x = int(order[0]), spaces[order[0]].x0()
     before = best = float(scores[best_i])
     runs = order[:max(1, min(restarts, len(order)))]
     for r, i in enumerate(runs):
         share = (budget - len(curve)) // (len(runs) - r)
-        x, f = cma_search(lambda xs, i=int(i): objective(i, xs), spaces[i].x0(), share, seed + r)
+        x, f = cma_search(lambda xs, i=int(i): evaluate([(i, x) for x in xs]), spaces[i].x0(), share, seed + r)
         if f < best:
             best, best_x, best_i = f, x, int(i)
     runs_found = [(spaces[i].values(found[i][1]), found[i][2]) for i in runs if i in found]

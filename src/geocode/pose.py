@@ -34,6 +34,7 @@ ROBUST_RADIUS = 99.0       # percentile of the radii that is 1 in the robust nor
 LEVEL_POINTS = 8000        # level_turn looks at this many points (subsampled, seeded) ...
 LEVEL_NEIGHBOURS = 10      # ... and fits a plane to each one's nearest
 LEVEL_SNAP = 1.0           # degrees: a shape this near square to the axes is left as it is
+SQUARE_GAIN = 0.02         # square_rotation turns a file only when that squares it this much more
 
 
 def axis_rotation(label: str) -> np.ndarray:
@@ -195,17 +196,26 @@ WEIGHTS = {
 }
 
 
+def up_features(points: np.ndarray, seed: int = 0) -> np.ndarray:
+    """`axis_features` of the cloud first squared to the file's axes (`square_rotation`): a
+    file turned about its up axis off the axes (a cabinet at 137 degrees) would otherwise show
+    its diagonals along the other two axes, and their extents, slabs and mirror planes would
+    read as a box lying on its side."""
+    pts = np.asarray(points, dtype=np.float64)
+    return axis_features(pts @ square_rotation(pts, seed).T)
+
+
 def up_candidates(points: np.ndarray, domain: str | None = None, k: int = 1, seed: int = 0) -> list[str]:
     """The `k` likeliest up axes ("+y", ...), best first.
 
-    Each signed axis is scored by `axis_features` @ `WEIGHTS[domain]` (the domain's own
+    Each signed axis is scored by `up_features` @ `WEIGHTS[domain]` (the domain's own
     weights where it has them, else the general ones). Uses a seeded subsample of
     FEATURE_POINTS points, and percentile ranges, so a million-point scan costs as much as a
     small one and a few outliers do not move the slabs."""
     pts = np.asarray(points, dtype=np.float64)
     if len(pts) > FEATURE_POINTS:
         pts = pts[generator(seed, "pose", "up").choice(len(pts), FEATURE_POINTS, replace=False)]
-    scores = axis_features(pts) @ np.asarray(WEIGHTS.get(domain or "", WEIGHTS[""]))
+    scores = up_features(pts, seed) @ np.asarray(WEIGHTS.get(domain or "", WEIGHTS[""]))
     return [AXES[i] for i in np.argsort(-scores, kind="stable")[:k]]
 
 
@@ -282,30 +292,64 @@ def apply(matrix: np.ndarray, points: np.ndarray) -> np.ndarray:
     return pts @ matrix[:3, :3].T + matrix[:3, 3]
 
 
-def level_turn(points: np.ndarray, seed: int = 0) -> float:
-    """The turn (degrees, in (-45, 45]) about +Z that squares the surface to the axes: most
-    faces of furniture (seat, back, doors, legs) face along two horizontal axes at right
-    angles, so the fourth circular moment of the surface normals' horizontal parts,
-    sum h^2 e^(4 i phi) (h, phi: their length and direction; sampled uniformly over the area,
-    near-horizontal faces count little), points along one of them. Normals come from the
-    local planes of the points (LEVEL_NEIGHBOURS nearest of a seeded subsample), so a cloud
-    needs no faces. Turning the input by minus it first makes `reconstruct` blind to how the
-    input was turned: any turn of the same shape reaches the same frame up to a quarter-turn,
-    which the front search covers. Furniture square to its axes (within LEVEL_SNAP) stays as
-    it is (0), so that a file in the dataset's own pose is read exactly as the dataset is."""
+def _normals(points: np.ndarray, seed: int) -> np.ndarray:
+    """(N, 3) unit surface normals (sign arbitrary) of a seeded subsample of LEVEL_POINTS
+    points, from the plane through each one's LEVEL_NEIGHBOURS nearest, so a cloud needs no
+    faces; the points are spread uniformly over the area, so each normal stands for an equal
+    share of it. Empty for a cloud too small to have planes."""
     pts = np.asarray(points, dtype=np.float64)
     if len(pts) > LEVEL_POINTS:
         pts = pts[generator(seed, "pose", "level").choice(len(pts), LEVEL_POINTS, replace=False)]
     if len(pts) <= LEVEL_NEIGHBOURS:
-        return 0.0
+        return np.zeros((0, 3))
     near = pts[cKDTree(pts).query(pts, k=LEVEL_NEIGHBOURS)[1]]
     near -= near.mean(axis=1, keepdims=True)
-    normals = np.linalg.eigh(np.einsum("nki,nkj->nij", near, near))[1][:, :, 0]
+    return np.linalg.eigh(np.einsum("nki,nkj->nij", near, near))[1][:, :, 0]
+
+
+def _level_degrees(normals: np.ndarray) -> float:
+    """`level_turn` of these normals (about +Z)."""
     z = normals[:, 0] + 1j * normals[:, 1]
     h2 = np.abs(z) ** 2
     moment = np.sum(np.where(h2 > 1e-12, z ** 4 / np.maximum(h2, 1e-12), 0.0))
     degrees = float(np.degrees(np.angle(moment) / 4)) if abs(moment) > 0 else 0.0
     return 0.0 if abs(degrees) < LEVEL_SNAP else degrees
+
+
+def level_turn(points: np.ndarray, seed: int = 0) -> float:
+    """The turn (degrees, in (-45, 45]) about +Z that squares the surface to the axes: most
+    faces of furniture (seat, back, doors, legs) face along two horizontal axes at right
+    angles, so the fourth circular moment of the surface normals' horizontal parts,
+    sum h^2 e^(4 i phi) (h, phi: their length and direction; `_normals`, near-horizontal
+    faces count little), points along one of them. Turning the input by minus it first makes
+    `reconstruct` blind to how the input was turned: any turn of the same shape reaches the
+    same frame up to a quarter-turn, which the front search covers. Furniture square to its
+    axes (within LEVEL_SNAP) stays as it is (0), so that a file in the dataset's own pose is
+    read exactly as the dataset is."""
+    normals = _normals(points, seed)
+    return _level_degrees(normals) if len(normals) else 0.0
+
+
+def square_rotation(points: np.ndarray, seed: int = 0) -> np.ndarray:
+    """The rotation (3x3) that squares the surface to all three axes before the up axis is
+    known: the level turn about whichever file axis squares it best, where "square" is the
+    mean of n_x^4 + n_y^4 + n_z^4 over the surface normals (1 when every face looks along an
+    axis, 0.6 for normals spread evenly). Files keep their up axis on one of their own axes
+    and may turn the shape about it; the level turn about that axis undoes the turn. The
+    identity (a file already square, a round vase) unless a turn gains SQUARE_GAIN."""
+    normals = _normals(points, seed)
+    best, best_square = np.eye(3), -np.inf
+    if not len(normals):
+        return best
+    for axis in (None, "+x", "+y", "+z"):
+        rotation = np.eye(3)
+        if axis is not None:
+            to_z = axis_rotation(axis)
+            rotation = to_z.T @ turn_z(-_level_degrees(normals @ to_z.T)) @ to_z
+        square = float(((normals @ rotation.T) ** 4).sum(axis=1).mean()) - (0 if axis is None else SQUARE_GAIN)
+        if square > best_square:
+            best, best_square = rotation, square
+    return best
 
 
 def find_pose(points: np.ndarray, up: str = "auto", domain: str | None = None, robust: bool = False,
