@@ -94,7 +94,7 @@ def measure(turned=False):
     def rotations(i, j):
         if turned:
             angles = np.random.default_rng([i, j]).uniform(10, 80, len(ups)) + 90 * ((i + j) % 4)
-            return [u @ pose.turn_z(a) for u, a in zip(ups, angles)]
+            return [u @ pose.turn_z(a) for u, a in zip(ups, angles, strict=True)]
         return [u @ turn[(i + j) % 4] for u in ups]
 
     for d in DOMAINS:
