@@ -167,3 +167,23 @@ def test_a_changed_program_trains_afresh_and_sets_the_old_run_aside(tmp_path, ca
     assert [r.levelname for r in caplog.records if "another version of the program" in r.getMessage()] == ["WARNING"]
     assert torch.load(second["last"], weights_only=True)["program"] == second["program"]
     assert load_model(second["best"]).hparams.heads[3]["n_classes"] == 4
+
+
+def test_other_training_settings_train_afresh_but_more_epochs_carry_on(tmp_path, caplog):
+    """A run folder is keyed to its settings too (`config.training_key`): a changed learning
+    rate sets the old run aside and starts again, where more epochs resume it."""
+    from geocode.config import training_key
+
+    with toy_config(tmp_path, 1, "train.limit_train_batches=1") as cfg:
+        first = train(cfg)
+        old_key = training_key(cfg)
+        cfg.train.max_epochs = 2
+        assert training_key(cfg) == old_key and train(cfg)["resumed"] is True
+        cfg.train.lr = cfg.train.lr / 2
+        with caplog.at_level(logging.WARNING, logger="geocode.train"):
+            second = train(cfg)
+    out = Path(second["out_dir"])
+    assert second["resumed"] is False and out == Path(first["out_dir"])
+    assert (out / f"stale-{old_key}" / "checkpoints" / "last.ckpt").exists()
+    assert [r.levelname for r in caplog.records if "other settings" in r.getMessage()] == ["WARNING"]
+    assert torch.load(second["last"], weights_only=True)["settings"] == training_key(cfg) != old_key

@@ -155,6 +155,25 @@ def config_hash(cfg: DictConfig) -> str:
     return hashlib.sha1(text.encode()).hexdigest()[:10]
 
 
+EPOCH_KEYS = ("max_epochs", "domain_epochs", "variant_epochs")   # a run given more epochs carries on
+RUN_ONLY_KEYS = ("accelerator", "devices", "num_workers", "progress_bar", "log_every_n_steps", "out_dir")
+
+
+def training_key(cfg: DictConfig, epochs: bool = False) -> str:
+    """A short hash of what a trained model depends on: data.*, model.*, train.* but for how
+    the run is carried out (RUN_ONLY_KEYS), and the seed; the epochs (EPOCH_KEYS) only with
+    `epochs`, since a finished run given more epochs resumes and carries on. A run folder
+    whose checkpoint has another key trains afresh (`steps.train`), and the workflow's train
+    rule reruns when the key with epochs changes (a profile's YAML edited, not only the
+    command line's overrides)."""
+    train = OmegaConf.to_container(cfg.train, resolve=True)
+    for key in RUN_ONLY_KEYS + (() if epochs else EPOCH_KEYS):
+        train.pop(key, None)
+    payload = {"data": OmegaConf.to_container(cfg.data, resolve=True), "train": train, "seed": cfg.seed,
+               "model": OmegaConf.to_container(cfg.model, resolve=True) if "model" in cfg else None}
+    return hashlib.sha1(json.dumps(payload, sort_keys=True, default=str).encode()).hexdigest()[:10]
+
+
 def domains(cfg: DictConfig) -> list[str]:
     """The domains the workflow runs: `domains` from config, or every domain in the registry."""
     return list(cfg.domains) if cfg.domains else registry()

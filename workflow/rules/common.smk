@@ -8,7 +8,7 @@ from pathlib import Path
 from snakemake.exceptions import WorkflowError
 
 from geocode import paths
-from geocode.config import ConfigError, compose, domains, variants
+from geocode.config import ConfigError, compose, domains, training_key, variants
 
 envvars:
     "PATH",
@@ -115,3 +115,11 @@ def training_threads(wildcards):
         return max(1, workflow.cores // 2)
     except WorkflowError:
         return 2
+
+
+def training_settings(wildcards):
+    """Everything a model depends on, epochs included (`config.training_key`): a param of the
+    train rule, so that Snakemake retrains when a profile's YAML changes, not only when the
+    command line's overrides do (the train step then sets the old run aside)."""
+    cfg = compose([*OVERRIDES, f"domain={wildcards.domain}", f"model={wildcards.variant}"])
+    return training_key(cfg, epochs=True)

@@ -13,6 +13,7 @@ rule train:
     params:
         args=lambda w: step_args(w.domain),
         out=str(run_folder("{domain}", "{variant}")),
+        settings=training_settings,
     threads: training_threads
     resources:
         mem_mb=8000,

@@ -29,7 +29,7 @@ from geocode.checkpoints import (  # noqa: F401  (load_model, predict, predict_c
     read_checkpoint,
     recipe_stamp,
 )
-from geocode.config import max_epochs, settings
+from geocode.config import max_epochs, settings, training_key
 from geocode.errors import UserError, one_line
 from geocode.meshio import write_text
 from geocode.models.module import MODALITIES, GeoCodeModule
@@ -79,15 +79,16 @@ def build_model(cfg: DictConfig, recipe) -> GeoCodeModule:
 
 
 class RunStamp(pl.Callback):
-    """Writes into every checkpoint what it was trained on: `recipe_stamp(recipe)` as "recipe"
-    and the program's manifest key as "program"."""
+    """Writes into every checkpoint what it was trained on: `recipe_stamp(recipe)` as "recipe",
+    the program's manifest key as "program" and `config.training_key` as "settings"."""
 
-    def __init__(self, recipe, program: str):
-        self.recipe, self.program = recipe_stamp(recipe), program
+    def __init__(self, recipe, program: str, settings: str):
+        self.recipe, self.program, self.settings = recipe_stamp(recipe), program, settings
 
     def on_save_checkpoint(self, trainer, pl_module, checkpoint):
         checkpoint["recipe"] = self.recipe
         checkpoint["program"] = self.program
+        checkpoint["settings"] = self.settings
 
 
 def build_datamodule(cfg: DictConfig, recipe, modalities=MODALITIES):
@@ -136,7 +137,7 @@ def train(cfg: DictConfig, out_dir: str | Path | None = None) -> dict:
     ckpt_dir = paths.checkpoint_dir(out)
     pl.seed_everything(int(cfg.seed), workers=True)
     recipe = load_recipe(cfg)
-    program = program_key(cfg)
+    program, key = program_key(cfg), training_key(cfg)
     model = build_model(cfg, recipe)
     data = build_datamodule(cfg, recipe, model.modalities)   # huang reads no clouds
     data.setup("fit")  # read (and check) the data before the run folder is made; kept for fit
@@ -144,8 +145,8 @@ def train(cfg: DictConfig, out_dir: str | Path | None = None) -> dict:
     best_cb = ModelCheckpoint(dirpath=ckpt_dir, filename="best", monitor="val/acc", mode="max",
                               save_last=True, enable_version_counter=False)
     trainer = trainer_for(settings(cfg).train, max_epochs=max_epochs(cfg, variant(cfg)), default_root_dir=out,
-                          callbacks=[best_cb, EpochLog(), RunStamp(recipe, program)])
-    set_aside_if_stale(out, program)      # once the Trainer is sure to start
+                          callbacks=[best_cb, EpochLog(), RunStamp(recipe, program, key)])
+    set_aside_if_stale(out, program, key)      # once the Trainer is sure to start
     resume = last if last.exists() else None
     if resume is not None:
         check_compatible(resume, model)
@@ -230,14 +231,21 @@ def program_key(cfg: DictConfig) -> str:
     return hashlib.sha1(json.dumps(manifest, sort_keys=True).encode()).hexdigest()[:10]
 
 
-def set_aside_if_stale(out: Path, program: str) -> None:
+def set_aside_if_stale(out: Path, program: str, settings: str) -> None:
     """A run folder whose last checkpoint was trained on another version of the program
-    (another manifest key) is moved into <out>/stale-<its key>/, so that training starts
-    afresh; a checkpoint from before the key is resumed as before."""
+    (another manifest key) or with other settings (another `config.training_key`: data,
+    model, learning rate, ...; more epochs are not another setting) is moved into
+    <out>/stale-<its key>/, so that training starts afresh; a checkpoint from before the keys
+    is resumed as before."""
     last = out / "checkpoints" / "last.ckpt"
-    theirs = read_checkpoint(last).get("program") if last.exists() else None
-    if theirs is None or theirs == program:
+    stamp = read_checkpoint(last) if last.exists() else {}
+    changed = [(what, stamp[name], mine) for what, name, mine in
+               (("another version of the program (manifest key", "program", program),
+                ("other settings (training key", "settings", settings))
+               if stamp.get(name) not in (None, mine)]
+    if not changed:
         return
+    what, theirs, mine = changed[0]
     aside = out / f"stale-{theirs}"
     for n in range(2, 1000):
         if not aside.exists():
@@ -247,8 +255,7 @@ def set_aside_if_stale(out: Path, program: str) -> None:
     for entry in sorted(out.iterdir()):
         if entry != aside and not entry.name.startswith("stale-"):
             entry.rename(aside / entry.name)
-    log.warning("%s: trained on another version of the program (manifest key %s, now %s); moved to %s, "
-                "training afresh", out, theirs, program, aside)
+    log.warning("%s: trained on %s %s, now %s); moved to %s, training afresh", out, what, theirs, mine, aside)
 
 
 def check_compatible(path: Path, model: GeoCodeModule) -> None:
