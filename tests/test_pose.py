@@ -97,9 +97,10 @@ def scanned(points, rng):
 
 # Shapes the weights were never fitted on (they were fitted on seeds 1000..1019); the bars sit
 # under what scripts/fit_up_weights.py measure gives on 20 shapes x 6 ups x 4 perturbations
-# (chair 0.90, table 0.99, ceiling lamp 0.75, vase 0.60, cabinet 0.54). The lamp's is lower
-# since it makes flush mounts (a flat canopy and a dome: near symmetric top to bottom once
-# noisy); these 4 lamps give 0.58.
+# (chair 0.90, table 0.99, ceiling lamp 0.81, vase 0.61, cabinet 0.54; `measure turned`, each
+# shape also turned 10-80 degrees off the axes about its up: 0.90, 0.99, 0.83, 0.64, 0.54).
+# The lamp's bar is lower since it makes flush mounts (a flat canopy and a dome: near
+# symmetric top to bottom once noisy); these 4 lamps give 0.58.
 BARS = {"chair": 0.8, "table": 0.8, "ceiling_lamp": 0.55, "vase": 0.4, "cabinet": 0.4}
 
 
@@ -111,7 +112,7 @@ def test_up_axis_on_program_shapes_turned_every_way(domain):
     hits = []
     for i, (rng, base) in enumerate(program_clouds(domain, 4, seed=7000)):
         for k, to_input in enumerate(ups):
-            r = to_input @ pose.turns(4)[(i + k) % 4]
+            r = to_input @ pose.turn_z(90.0 * ((i + k) % 4) + (37.0 if k % 3 == 0 else 0.0))  # some off the axes
             points = scanned(base, rng) if k % 2 else base
             points = points @ r.T * rng.uniform(0.01, 100) + rng.normal(0, 10, 3)
             rotation, label = pose.up_axis(points, domain)
