@@ -225,17 +225,15 @@ class Reconstructor:
     def shape(self, path: Path) -> Reconstruction:
         geometry = read_geometry(path)
         frames = self.frames(geometry)
-        starts = [self.starts(frame) for frame in frames]
-        plain = [CloudDistance(f.samples[:TARGET_POINTS], trim=0.0) for f in frames]
-        # the network's best answer per up axis (its first TURNS starts: the rest are retrieved)
-        scored = [min(((plain[i](s_pose(s).apply(self.points(s.values))), s) for s in ss[:TURNS]),
-                      key=lambda t: t[0]) for i, ss in enumerate(starts)]
-        i = int(np.argmin([d for d, _ in scored]))          # the up axis whose answer is nearest
+        answers = [network_starts(self.model, self.recipe, f.cloud, TURNS, self.cfg.eval.decode) for f in frames]
+        scored = [self.best_answer(f, a) for f, a in zip(frames, answers, strict=True)]
+        i = int(np.argmin([d for d, _ in scored]))   # the up axis whose best answer is nearest
         frame, network_start = frames[i], scored[i][1]
         result = Reconstruction(path, geometry.kind, [], frame, geometry=geometry)
         result.network = self.score(frame, network_start.values, s_pose(network_start))
         if self.refine > 0:   # the fit
-            result.fit = fit(self.program, self.recipe, starts[i], frame.samples[:TARGET_POINTS],
+            starts = answers[i] + self.nearest_starts(frame, answers[i])
+            result.fit = fit(self.program, self.recipe, starts, frame.samples[:TARGET_POINTS],
                              self.refine, seed=self.cfg.seed, restarts=max(2, self.candidates),
                              helpers=self.helpers)
             fitted = [Answer(v, w, self.score(frame, v, w)) for v, w in result.fit.found]
@@ -264,12 +262,16 @@ class Reconstructor:
             frames.append(Frame(pose, canonical, network_cloud(canonical, self.cfg.data.points, rng)))
         return frames
 
-    def starts(self, frame: Frame) -> list[Start]:
-        """The network's answers at every turn, then the nearest training shapes (each with
-        the network's discrete options of the nearest turn after its own values)."""
-        starts = network_starts(self.model, self.recipe, frame.cloud, TURNS, self.cfg.eval.decode)
+    def best_answer(self, frame: Frame, answers: list[Start]) -> tuple[float, Start]:
+        """(plain distance, answer) of the network's answer (one per turn) nearest the input."""
+        plain = CloudDistance(frame.samples[:TARGET_POINTS], trim=0.0)
+        return min(((plain(s_pose(s).apply(self.points(s.values))), s) for s in answers), key=lambda t: t[0])
+
+    def nearest_starts(self, frame: Frame, starts: list[Start]) -> list[Start]:
+        """The nearest training shapes as starts of the fit, each with the discrete options of
+        the network's answer (`starts`, one per turn) at the nearest turn after its own values."""
         if self.training is None:
-            return starts
+            return []
         nearest = []
         for match in self.training.matches(frame.samples[:SCORE_POINTS], NEAREST):
             values = yaml.safe_load(match.mesh_path.with_suffix(".yaml").read_text())
@@ -277,7 +279,7 @@ class Reconstructor:
             options = {name: list(dict.fromkeys([float(values[name]), *o]))
                        for name, o in turn.options.items() if name in values}
             nearest.append(Start(self.program.check(values), options, match.turn))
-        return starts + nearest
+        return nearest
 
     def points(self, values: dict, n: int = 2048) -> np.ndarray:
         return shape_points(self.program, self.program.check(values), n)
