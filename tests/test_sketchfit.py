@@ -144,6 +144,21 @@ def test_fit_brings_a_program_shape_nearer_its_drawing(program):
     assert result.after < 0.75 * result.before
 
 
+@pytest.mark.blender
+def test_helper_processes_give_the_same_drawing_fit(program):
+    """The starts and CMA-ES's generations drawn in a helper process (its own Blender and
+    shape cache) beside this one: the same distances in the same order, so the same fit."""
+    recipe = program.recipe()
+    rng = np.random.default_rng(6)
+    truth, other = (next(v for v in iter(lambda: program.random_values(rng), None)
+                         if recipe.satisfies(v)) for _ in range(2))
+    drawing = render(normalise_unit_sphere(program.evaluate(truth)), View(35.0, 30.0))
+    alone, shared = (fit_drawing(program, recipe, [Start(other)], drawing, budget=250, seed=0,
+                                 guesses=((35.0, 30.0),), helpers=helpers)   # sweeps, then CMA-ES
+                     for helpers in (0, 1))
+    assert shared.curve == alone.curve and shared.values == alone.values and shared.camera == alone.camera
+
+
 def test_freestyle_drawing_follows_the_view(blender):
     """Freestyle's drawing, rolled, scaled and shifted in the image, lies within a pixel of
     linedraw's from the same view (and far from the unmoved one)."""

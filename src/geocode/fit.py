@@ -228,7 +228,7 @@ class Scorer:
 
 
 _POOLS: dict[tuple[str, int], object] = {}
-_HELPER: dict = {}    # in a helper process: its program, and the distance of the last target
+_HELPER: dict = {}    # in a helper process: its program, and what it keeps for the last target
 
 
 def helper_pool(domain: str, helpers: int):
@@ -260,11 +260,18 @@ def _helper_start(domain: str) -> None:
     _HELPER["program"] = Program.load(domain)
 
 
+def helper_state(token: str, make):
+    """In a helper process: (its program, `make(program)`), made once per `token` (a fit's
+    target: a helper serves one fit at a time, so one is kept)."""
+    if _HELPER.get("token") != token:
+        _HELPER["token"], _HELPER["state"] = token, make(_HELPER["program"])
+    return _HELPER["program"], _HELPER["state"]
+
+
 def _helper_score(token: str, target: np.ndarray, trim: float, pose: bool,
                   batch: list[tuple[dict, float]]) -> list[tuple[float, Pose]]:
-    if _HELPER.get("token") != token:
-        _HELPER["token"], _HELPER["distance"] = token, CloudDistance(target, trim)
-    return [score(_HELPER["program"], _HELPER["distance"], pose, v, t) for v, t in batch]
+    program, distance = helper_state(token, lambda _: CloudDistance(target, trim))
+    return [score(program, distance, pose, v, t) for v, t in batch]
 
 
 def fit(program, recipe, starts: Sequence[Start], target: np.ndarray, budget: int,

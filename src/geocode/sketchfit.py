@@ -34,12 +34,13 @@ from __future__ import annotations
 
 import math
 import time
+import uuid
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from geocode.fit import SearchSpace, Start, cma_search
+from geocode.fit import SearchSpace, Start, cma_search, helper_pool, helper_state
 from geocode.linedraw import SIZE, DrawingDistance, Outline, View, stroke_mask, strokes
 from geocode.meshio import normalise_unit_sphere
 
@@ -149,6 +150,38 @@ class Shapes:
         return self.kept[key]
 
 
+def drawn_distance(shapes: Shapes, distance: DrawingDistance, values: dict, view: View) -> float:
+    """The drawing distance of the shape of `values` seen from `view` (inf: a refused shape)."""
+    outline = shapes(values)
+    return math.inf if outline is None else distance(strokes(outline, view))
+
+
+class Drawer:
+    """Drawing distances of batches of (values, view) to one target. With `helpers` > 0 a batch
+    is shared out between this process and `fit.helper_pool`'s processes, each with its own
+    program and shape cache: the same numbers, in the same order, sooner."""
+
+    def __init__(self, program, target: np.ndarray, helpers: int = 0):
+        self.shapes, self.distance, self.target = Shapes(program), DrawingDistance(target), target
+        self.helpers = helpers
+        self.pool = helper_pool(program.domain, helpers) if helpers > 0 else None
+        self.token = uuid.uuid4().hex
+
+    def __call__(self, batch: list[tuple[dict, View]]) -> list[float]:
+        if self.pool is None or len(batch) < 2:
+            return [drawn_distance(self.shapes, self.distance, v, w) for v, w in batch]
+        parts = np.array_split(np.arange(len(batch)), self.helpers + 1)
+        futures = [self.pool.submit(_helper_distances, self.token, self.target, [batch[k] for k in part])
+                   for part in parts[1:] if len(part)]
+        mine = [drawn_distance(self.shapes, self.distance, *batch[k]) for k in parts[0]]
+        return mine + [d for f in futures for d in f.result()]
+
+
+def _helper_distances(token: str, target: np.ndarray, batch: list[tuple[dict, View]]) -> list[float]:
+    _, (shapes, distance) = helper_state(token, lambda program: (Shapes(program), DrawingDistance(target)))
+    return [drawn_distance(shapes, distance, v, w) for v, w in batch]
+
+
 def camera_starts(shapes: Shapes, values: dict, target: np.ndarray,
                   guesses: Sequence[tuple[float, float]] = CAMERA_GUESSES) -> list[View]:
     """Each camera guess twice: the dataset's framing (scale 1, no shift), and the start
@@ -165,38 +198,50 @@ def camera_starts(shapes: Shapes, values: dict, target: np.ndarray,
 
 def fit_drawing(program, recipe, starts: Sequence[Start], drawing: np.ndarray,
                 budget: int = BUDGET, seed: int = 0, restarts: int = RESTARTS,
-                guesses: Sequence[tuple[float, float]] = CAMERA_GUESSES) -> DrawingFit:
+                guesses: Sequence[tuple[float, float]] = CAMERA_GUESSES, helpers: int = 0) -> DrawingFit:
     """Search at most `budget` program evaluations for the parameters and camera whose line
     drawing is nearest `drawing` ((224, 224) or (1, 224, 224) float, white 1, strokes 0, as
     `reconstruct.sketch_from_image` or `training_data.load_sketch` give), by
     `linedraw.drawing_distance`. Each of `starts` (the network's answer, with its discrete
     options) is tried from every camera guess and framing; all are scored, then the sweeps
     and CMA-ES (module docstring) run from the best `restarts`. The result's camera views the
-    unit-sphere shape (`meshio.normalise_unit_sphere`) of its values."""
+    unit-sphere shape (`meshio.normalise_unit_sphere`) of its values. `helpers`: processes
+    that draw the starts and CMA-ES's generations beside this one (`Drawer`)."""
     started = time.perf_counter()
     target = stroke_mask(drawing)
-    distance = DrawingDistance(target)
-    shapes = Shapes(program)
+    drawer = Drawer(program, target, helpers)
+    shapes, distance = drawer.shapes, drawer.distance
     spaces = []
     for s in starts:
         space = SearchSpace(recipe, Start(program.check(s.values), s.options))
         spaces += [(space, CameraSpace(v)) for v in camera_starts(shapes, space.start.values, target, guesses)]
     curve: list[float] = []
 
+    def evaluate(candidates: Sequence[tuple[int, np.ndarray]]) -> list[float]:
+        """The objective of candidates (start i, x), drawn in one batch (inf where the
+        recipe's rules fail or the program refuses)."""
+        shaped = []
+        for i, x in candidates:
+            space, cams = spaces[i]
+            n = len(x) - 6
+            shaped.append((space.values(np.asarray(x[:n])), cams.view(x[n:]), n))
+        valid = [k for k, (v, _, _) in enumerate(shaped) if recipe.satisfies(v)]
+        drawn = dict(zip(valid, drawer([shaped[k][:2] for k in valid]), strict=True))
+        out = []
+        for k, (i, x) in enumerate(candidates):
+            value, n = drawn.get(k, math.inf), shaped[k][2]
+            if math.isfinite(value):
+                moved = (np.clip(x, 0, 1) - x0s[i]) ** 2
+                value += PRIOR * float(np.sum(moved[:n])) + CAMERA_PRIOR * float(np.sum(moved[n:]))
+            curve.append(min(value, curve[-1]) if curve else value)
+            out.append(value)
+        return out
+
     def objective(i: int, x: np.ndarray) -> float:
-        space, cams = spaces[i]
-        n = len(x) - 6
-        values = space.values(np.asarray(x[:n]))
-        outline = shapes(values) if recipe.satisfies(values) else None
-        value = math.inf if outline is None else distance(strokes(outline, cams.view(x[n:])))
-        if outline is not None:
-            moved = (np.clip(x, 0, 1) - x0s[i]) ** 2
-            value += PRIOR * float(np.sum(moved[:n])) + CAMERA_PRIOR * float(np.sum(moved[n:]))
-        curve.append(min(value, curve[-1]) if curve else value)
-        return value
+        return evaluate([(i, x)])[0]
 
     x0s = [np.concatenate([space.x0(), cams.x0()]) for space, cams in spaces]
-    scores = [objective(i, x) for i, x in enumerate(x0s[:max(1, budget)])]
+    scores = evaluate(list(enumerate(x0s[:max(1, budget)])))
     handicap = [0.0 if (cams.start.azimuth, cams.start.elevation) in TRAINED_VIEWS else VIEW_MARGIN
                 for _, cams in spaces[:len(scores)]]
     order = np.argsort(np.add(scores, handicap), kind="stable")
@@ -213,7 +258,7 @@ def fit_drawing(program, recipe, starts: Sequence[Start], drawing: np.ndarray,
                                     budget - len(curve), step)
         share = (budget - len(curve)) // (len(runs) - r)
         stds = np.concatenate([np.full(len(x) - 6, SIGMA), CAMERA_SIGMA])
-        y, g = cma_search(lambda xs, i=int(i): [objective(i, x) for x in xs], x, share, seed + r, stds)
+        y, g = cma_search(lambda xs, i=int(i): evaluate([(i, x) for x in xs]), x, share, seed + r, stds)
         x, f = (y, g) if g < f else (x, f)
         if f < best:
             best, best_x, best_i = f, x, int(i)

@@ -208,7 +208,7 @@ class Reconstructor:
         if budget == 0:
             return result
         found = fit_drawing(self.program, self.recipe, [Start(values, options)], sketch, budget,
-                            seed=self.cfg.seed)
+                            seed=self.cfg.seed, helpers=self.helpers)
 
         def scored(values: dict, camera) -> tuple[float, np.ndarray]:
             drawn = freestyle_drawing(normalise_unit_sphere(self.program.evaluate(values)), camera)
