@@ -173,3 +173,19 @@ def test_up_features_do_not_change_when_a_file_turns_its_shape_about_the_up_axis
             row = pose.AXES.index(up)
             assert np.abs(pose.up_features(points)[row] - square).max() < 0.01, (degrees, up)
             assert np.abs(pose.axis_features(points)[row] - square).max() > 0.05   # what it fixes
+
+
+def test_a_wrong_up_candidate_still_lays_a_turned_shape_square_on_a_side():
+    """With `squared` (auto's candidates), a file turned 137 degrees about its up (z), posed
+    with x up, lies as square as the unturned file posed with x up: same extents."""
+    import trimesh
+
+    shape = trimesh.util.concatenate([trimesh.creation.box((0.6, 1.2, 0.1)),
+                                      trimesh.creation.box((0.1, 0.1, 1.0)).apply_translation((0.25, 0.5, -0.5))])
+    base = trimesh.sample.sample_surface(shape, 4000, seed=2)[0]
+    turned = base @ pose.turn_z(137.0).T
+    unturned_extent = np.sort(np.ptp(pose.find_pose(base, up="x", squared=True).to_canonical(base), axis=0))
+    extent = np.sort(np.ptp(pose.find_pose(turned, up="x", squared=True).to_canonical(turned), axis=0))
+    assert np.allclose(extent, unturned_extent, atol=0.02)
+    tilted = np.sort(np.ptp(pose.find_pose(turned, up="x").to_canonical(turned), axis=0))
+    assert not np.allclose(tilted, unturned_extent, atol=0.05)   # as given, x is a diagonal

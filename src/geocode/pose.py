@@ -212,11 +212,16 @@ def up_candidates(points: np.ndarray, domain: str | None = None, k: int = 1, see
     weights where it has them, else the general ones). Uses a seeded subsample of
     FEATURE_POINTS points, and percentile ranges, so a million-point scan costs as much as a
     small one and a few outliers do not move the slabs."""
+    scores = up_features(_feature_sample(points, seed), seed) @ np.asarray(WEIGHTS.get(domain or "", WEIGHTS[""]))
+    return [AXES[i] for i in np.argsort(-scores, kind="stable")[:k]]
+
+
+def _feature_sample(points: np.ndarray, seed: int) -> np.ndarray:
+    """The seeded subsample of FEATURE_POINTS points that the up axis is judged on."""
     pts = np.asarray(points, dtype=np.float64)
     if len(pts) > FEATURE_POINTS:
         pts = pts[generator(seed, "pose", "up").choice(len(pts), FEATURE_POINTS, replace=False)]
-    scores = up_features(pts, seed) @ np.asarray(WEIGHTS.get(domain or "", WEIGHTS[""]))
-    return [AXES[i] for i in np.argsort(-scores, kind="stable")[:k]]
+    return pts
 
 
 def up_axis(points: np.ndarray, domain: str | None = None, seed: int = 0) -> tuple[np.ndarray, str]:
@@ -353,16 +358,25 @@ def square_rotation(points: np.ndarray, seed: int = 0) -> np.ndarray:
 
 
 def find_pose(points: np.ndarray, up: str = "auto", domain: str | None = None, robust: bool = False,
-              seed: int = 0, extent: np.ndarray | None = None) -> Pose:
+              seed: int = 0, extent: np.ndarray | None = None, squared: bool | None = None) -> Pose:
     """The pose that brings `points` (input frame, surface samples) Z-up into the unit
     sphere: up axis found (`up="auto"`, with `domain`'s weights) or given ("y", "-z", ...),
     turned about it by minus `level_turn` (the pose's `turn`), then centred and scaled by
     `normalise` in the turned frame (the bounding box taken Z-up, as the dataset's is).
     `extent`: the points that set centre and scale instead, e.g. a mesh's vertices, so that a
     mesh is normalised exactly as meshio.normalise_unit_sphere does (its samples fall a
-    little inside its vertices' box)."""
+    little inside its vertices' box). `squared` (the default with "auto"; `up` then one of
+    `up_candidates`): the axis is one of the cloud squared by `square_rotation`, as the up
+    features judged it; where that squares it about another axis than `up` (a cabinet turned
+    137 degrees about its z, `up` its x), the shape is squared first, so that a candidate
+    other than the true up still lays the shape square on a side, as it would unturned."""
     pts = np.asarray(points, dtype=np.float64)
     rotation, label = up_axis(pts, domain, seed) if up == "auto" else (axis_rotation(up), up)
+    if squared or (squared is None and up == "auto"):
+        square = square_rotation(_feature_sample(pts, seed), seed)
+        fixed = np.isclose(np.diag(square), 1.0)
+        if not fixed.all() and not fixed[int(np.argmax(np.abs(rotation[2])))]:
+            rotation = rotation @ square
     turn = -level_turn(pts @ rotation.T, seed)
     rotation = turn_z(turn) @ rotation
     frame = pts if extent is None else np.asarray(extent, dtype=np.float64)

@@ -257,7 +257,7 @@ class Reconstructor:
         extent = geometry.mesh.vertices if geometry.mesh is not None else None
         frames = []
         for up in ups:
-            pose = poses.find_pose(samples, up=up, domain=self.domain, extent=extent)
+            pose = poses.find_pose(samples, up=up, domain=self.domain, extent=extent, squared=self.up == "auto")
             canonical = pose.to_canonical(samples).astype(np.float32)
             frames.append(Frame(pose, canonical, network_cloud(canonical, self.cfg.data.points, rng)))
         return frames
