@@ -218,13 +218,19 @@ class Scorer:
         self.token = uuid.uuid4().hex     # which target the helpers' cached distance is for
 
     def __call__(self, batch: list[tuple[dict, float]]) -> list[tuple[float, Pose]]:
-        if self.pool is None or len(batch) < 2:
-            return [score(self.program, self.distance, self.pose, v, t) for v, t in batch]
-        parts = np.array_split(np.arange(len(batch)), self.helpers + 1)
-        futures = [self.pool.submit(_helper_score, self.token, self.distance.target, self.distance.trim,
-                                    self.pose, [batch[k] for k in part]) for part in parts[1:] if len(part)]
-        mine = [score(self.program, self.distance, self.pose, *batch[k]) for k in parts[0]]
-        return mine + [r for f in futures for r in f.result()]
+        return share_out(self.pool, self.helpers, batch, lambda item: score(self.program, self.distance, self.pose, *item),
+                         _helper_score, self.token, self.distance.target, self.distance.trim, self.pose)
+
+
+def share_out(pool, helpers: int, batch: list, here, there, *args) -> list:
+    """[here(item) for item in batch], the first of `helpers` + 1 equal shares done here and the
+    others by `there(*args, share)` in the pool's helper processes at the same time; in order."""
+    if pool is None or len(batch) < 2:
+        return [here(item) for item in batch]
+    parts = np.array_split(np.arange(len(batch)), helpers + 1)
+    futures = [pool.submit(there, *args, [batch[k] for k in part]) for part in parts[1:] if len(part)]
+    mine = [here(batch[k]) for k in parts[0]]
+    return mine + [r for f in futures for r in f.result()]
 
 
 _POOLS: dict[tuple[str, int], object] = {}

@@ -40,7 +40,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from geocode.fit import SearchSpace, Start, cma_search, helper_pool, helper_state
+from geocode.fit import SearchSpace, Start, cma_search, helper_pool, helper_state, share_out
 from geocode.linedraw import SIZE, DrawingDistance, Outline, View, stroke_mask, strokes
 from geocode.meshio import normalise_unit_sphere
 
@@ -168,13 +168,8 @@ class Drawer:
         self.token = uuid.uuid4().hex
 
     def __call__(self, batch: list[tuple[dict, View]]) -> list[float]:
-        if self.pool is None or len(batch) < 2:
-            return [drawn_distance(self.shapes, self.distance, v, w) for v, w in batch]
-        parts = np.array_split(np.arange(len(batch)), self.helpers + 1)
-        futures = [self.pool.submit(_helper_distances, self.token, self.target, [batch[k] for k in part])
-                   for part in parts[1:] if len(part)]
-        mine = [drawn_distance(self.shapes, self.distance, *batch[k]) for k in parts[0]]
-        return mine + [d for f in futures for d in f.result()]
+        return share_out(self.pool, self.helpers, batch, lambda item: drawn_distance(self.shapes, self.distance, *item),
+                         _helper_distances, self.token, self.target)
 
 
 def _helper_distances(token: str, target: np.ndarray, batch: list[tuple[dict, View]]) -> list[float]:
