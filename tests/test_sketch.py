@@ -142,10 +142,14 @@ def test_ctrl_c_during_a_render_arrives_after_it_and_leaves_no_image(tmp_path):
     def interrupt(*_):   # Ctrl+C as the render starts (a timer raced the render on a busy machine)
         os.kill(os.getpid(), signal.SIGINT)
 
+    # Ctrl+C as in a terminal, whatever the runner inherited (a shell ignores SIGINT in what it
+    # starts in the background) or an earlier test left
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
     bpy.app.handlers.render_pre.append(interrupt)
     try:
         with pytest.raises(KeyboardInterrupt):
             sketch.sketch_mesh(_sphere(), {cam.name: out}, [cam])
     finally:
         bpy.app.handlers.render_pre.remove(interrupt)
+        signal.signal(signal.SIGINT, previous)
     assert not out.exists() and not list(tmp_path.glob(".*"))
