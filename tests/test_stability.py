@@ -94,6 +94,30 @@ def test_free_fall_integrates_correctly():
     assert np.allclose(_rotation(out["q"]), np.eye(3))
 
 
+def test_a_step_too_long_for_a_light_top_heavy_body_is_halved():
+    """A small table with a thick top on thin X-frame legs (its mass near the centre, its feet
+    far below): the contact springs turn it faster than the 2 ms step can follow, and at that
+    step it gains energy and flips over. The drop reruns it at a shorter step, where it stands."""
+    from geocode.stability import _Body, _simulate, _simulate_stably
+
+    feet = np.array([[sx * 0.12, y, -0.408 if y in (-0.14, 0.155) else -0.414]
+                     for sx in (-1, 1) for y in (-0.14, -0.125, 0.14, 0.155)])
+    top = np.array([[sx * 0.2, sy * 0.145, 0.05] for sx in (-1, 1) for sy in (-1, 1)])
+    points = np.concatenate([feet, top])
+    body = _Body(0.0064, np.diag([7.2e-5, 1.13e-4, 1.15e-4]), points, "solid")
+    height = float(np.ptp(points[:, 2]))
+    start = 0.414 + 0.05 * height
+    assert _simulate(body, height, start, DropConfig())["unstable"]
+    out, cfg = _simulate_stably(body, height, start, DropConfig())
+    assert not out["unstable"] and cfg.dt < DropConfig().dt
+    assert out["x"][2] == pytest.approx(0.414, abs=0.005)            # on its feet
+    assert np.allclose(out["q"], [1, 0, 0, 0], atol=0.02)             # not turned
+
+
+def test_a_body_the_step_can_follow_keeps_it():
+    assert drop_test(trimesh.creation.box((1, 1, 1)))["dt"] == DropConfig().dt
+
+
 # ---- loose parts -----------------------------------------------------------------------------
 
 
