@@ -87,6 +87,21 @@ def test_zbuffer_matches_a_per_triangle_rasteriser():
     assert np.allclose(fast[np.isfinite(fast)], slow[np.isfinite(slow)])
 
 
+def test_faces_turned_away_change_no_stroke_of_a_closed_solid(monkeypatch):
+    """`strokes` z-buffers the faces turned towards the camera only: on closed solids (a box
+    through a cylinder, from many views) it draws exactly what the z-buffer of every face
+    draws."""
+    mesh = trimesh.util.concatenate([trimesh.creation.box((1.0, 0.6, 0.3)),
+                                     trimesh.creation.cylinder(0.2, 1.2, sections=24)])
+    outline = Outline(mesh.vertices, mesh.faces)
+    views = [View(a, e) for a in (0.0, 35.0, 100.0, 215.0) for e in (0.0, 30.0, 60.0)]
+    culled = [strokes(outline, v) for v in views]
+    every_face = linedraw.zbuffer
+    monkeypatch.setattr(linedraw, "zbuffer", lambda xy, depth, faces, size: every_face(xy, depth, outline.faces, size))
+    for view, ink in zip(views, culled, strict=True):
+        assert ink.sum() > 100 and np.array_equal(ink, strokes(outline, view)), view
+
+
 def test_roll_scale_and_offset_move_the_drawing():
     mesh = cube(0.3)
     outline = Outline(mesh.vertices, mesh.faces)

@@ -14,7 +14,8 @@ what `geocode.blender.sketch.SketchRenderer` draws:
   the two faces more than 180 - CREASE_ANGLE degrees apart, Freestyle's test
   `n_a . n_b <= cos(pi - crease_angle)`), borders (an edge of one face), and edges of more
   than two faces (drawn like creases);
-- visible parts only: a z-buffer of every triangle at the image's resolution; a point of an
+- visible parts only: a z-buffer of every triangle facing the camera (the nearest surface of a
+  closed solid always does) at the image's resolution; a point of an
   edge is visible where it is no deeper than the z-buffer's deepest value in its 3x3 pixel
   neighbourhood plus DEPTH_TOLERANCE pixels (the neighbourhood keeps an edge visible next to
   the steep faces it bounds, whose depth at a pixel centre is nearer than the edge's);
@@ -199,7 +200,9 @@ def strokes(outline: Outline, view: View, size: int = SIZE, width: int = WIDTH) 
     silhouette[two] = facing[pairs[two, 0]] != facing[pairs[two, 1]]
     drawn = outline.edges[outline.fixed | silhouette]
     points, z = edge_points(xy, depth, drawn, STEP * size / SIZE)
-    buffer = ndimage.maximum_filter(zbuffer(xy, depth, outline.faces, size), size=3, mode="nearest")
+    # the nearest surface along a ray into a closed solid faces the camera, so the faces turned
+    # away never set the z-buffer: half the triangles (the programs' parts are closed solids)
+    buffer = ndimage.maximum_filter(zbuffer(xy, depth, outline.faces[facing], size), size=3, mode="nearest")
     inside = (points[:, 0] >= 0) & (points[:, 0] < size) & (points[:, 1] >= 0) & (points[:, 1] < size)
     col = np.clip(np.floor(points[:, 0]).astype(np.int64), 0, size - 1)
     row = np.clip(np.floor(points[:, 1]).astype(np.int64), 0, size - 1)
