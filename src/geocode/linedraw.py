@@ -181,13 +181,12 @@ def zbuffer(xy: np.ndarray, depth: np.ndarray, faces: np.ndarray, size: int) -> 
 def edge_points(xy: np.ndarray, depth: np.ndarray, edges: np.ndarray,
                 step: float = STEP) -> tuple[np.ndarray, np.ndarray]:
     """Points every `step` px along each edge (both ends included): (points (P, 2), depths (P,))."""
-    a, b = xy[edges[:, 0]], xy[edges[:, 1]]
-    n = np.ceil(np.linalg.norm(b - a, axis=1) / step).astype(np.int64) + 1
+    a, za = xy[edges[:, 0]], depth[edges[:, 0]]
+    d, dz = xy[edges[:, 1]] - a, depth[edges[:, 1]] - za       # per edge, not per point
+    n = np.ceil(np.linalg.norm(d, axis=1) / step).astype(np.int64) + 1
     e = np.repeat(np.arange(len(edges)), n)
     t = (np.arange(len(e)) - np.repeat(np.cumsum(n) - n, n)) / np.repeat(np.maximum(n - 1, 1), n)
-    points = a[e] + t[:, None] * (b[e] - a[e])
-    z = depth[edges[e, 0]] + t * (depth[edges[e, 1]] - depth[edges[e, 0]])
-    return points, z
+    return a[e] + t[:, None] * d[e], za[e] + t * dz[e]
 
 
 def strokes(outline: Outline, view: View, size: int = SIZE, width: int = WIDTH) -> np.ndarray:
