@@ -208,7 +208,8 @@ def parser() -> argparse.ArgumentParser:
                                                  "and the up axis agreement")
     c.add_argument("--budget", type=at_most(5000, "program evaluations", "the fit's curve flattens well "
                                           "before (docs/wild.md)", low=0),
-                   help="real, turns: the fit's evaluations (default eval.reconstruct_budget); span: 2000")
+                   help="real, turns: the fit's evaluations (default eval.reconstruct_budget); span: 2000; "
+                        "fit --modality sketch: the drawing fit's (default: reconstruct's for a drawing)")
     c.add_argument("--n", type=at_most(10000, "shapes", "a rate settles within a few hundred"),
                    help="shapes (program: 200, fit: 20 test shapes, turns: 10)")
     c.add_argument("--clouds", type=at_most(100000, "clouds", "ten paper-scale epochs; the time grows with it"),
@@ -448,8 +449,8 @@ def cmd_bench(args):
         if args.modality == "sketch":
             from geocode.bench.sketch_fit import bench_sketch_fit
 
-            return bench_sketch_fit(cfg, args.domain, n=args.n or 10, camera=args.camera,
-                                    budget=args.budget or 800)
+            kwargs = {} if args.budget is None else {"budget": args.budget}
+            return bench_sketch_fit(cfg, args.domain, n=args.n or 10, camera=args.camera, **kwargs)
         return bench_fit(cfg, args.domain, n=args.n or 20)
     from geocode.bench.evaluate import bench_eval
 
