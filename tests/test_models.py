@@ -19,7 +19,7 @@ from geocode.models import (
     knn,
 )
 from geocode.models.heads import median_classes, regression_classes, regression_loss
-from geocode.models.neighbours import knn_cells, knn_chunked
+from geocode.models.neighbours import knn_cells, knn_chunked, neighbour_max_arg_sum, neighbour_max_sum_grad
 
 HEADS = [
     {"name": "size", "n_classes": 5, "continuous": True, "existence": True},
@@ -139,6 +139,24 @@ def test_fast_dgcnn_equals_reference(train):
         torch.testing.assert_close(p2.grad, p1.grad, atol=1e-5, rtol=1e-5, msg=name)
     for (name, b1), (_, b2) in zip(ref.named_buffers(), fast.named_buffers(), strict=True):
         torch.testing.assert_close(b2.double(), b1.double(), atol=1e-5, rtol=1e-5, msg=name)
+
+
+def test_compiled_neighbour_max_and_sum_equal_the_gathered_ones():
+    """The training kernels of the fast EdgeConv: max, its source row and the sum over each
+    point's neighbours, and the gradient scattered back, as a plain gather computes them."""
+    torch.manual_seed(3)
+    b, flat, k = torch.randn(200, 6, dtype=torch.float64), torch.randint(200, (200 * 7,)), 7
+    mx, src, total = neighbour_max_arg_sum(b, flat, k, True)
+    nb = b[flat].view(200, k, 6)
+    torch.testing.assert_close(mx, nb.amax(dim=1))
+    torch.testing.assert_close(total, nb.sum(dim=1))
+    assert torch.equal(b.gather(0, src), mx)
+    g_max, g_sum = torch.randn(200, 6, dtype=torch.float64), torch.randn(200, 6, dtype=torch.float64)
+    leaf = b.clone().requires_grad_()
+    nb = leaf[flat].view(200, k, 6)
+    (nb.amax(dim=1) * g_max + nb.sum(dim=1) * g_sum).sum().backward()
+    torch.testing.assert_close(neighbour_max_sum_grad(g_max, src, g_sum, flat, k, 200), leaf.grad)
+    assert neighbour_max_arg_sum(b, flat, k, False)[2] is None
 
 
 def test_fast_dgcnn_inference_equals_reference():

@@ -11,6 +11,7 @@ from geocode.steps.dataset import (
     assign_shards,
     sample_dataset,
     shape_hashes,
+    split_cameras,
     split_order,
 )
 
@@ -227,3 +228,14 @@ def test_domain_epochs_replace_a_domains_max_epochs():
                    "train.variant_epochs.huang=0.375"])
     assert max_epochs(cfg, "joint") == 20 and max_epochs(cfg, "huang") == 8     # the step's own domain
     assert max_epochs(cfg, "joint", "chair") == 16 and max_epochs(cfg, "huang", "chair") == 6
+
+
+def test_only_the_test_split_is_drawn_from_the_novel_camera():
+    from omegaconf import OmegaConf
+
+    cams = OmegaConf.create([{"name": "az35", "azimuth": 35, "train": True},
+                             {"name": "az55", "azimuth": 55, "train": True},
+                             {"name": "az15", "azimuth": 15, "train": False}])
+    assert [c.name for c in split_cameras(cams, "test")] == ["az35", "az55", "az15"]
+    for split in ("train", "val", "test-s10"):
+        assert [c.name for c in split_cameras(cams, split)] == ["az35", "az55"]

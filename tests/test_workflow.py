@@ -92,7 +92,10 @@ def test_smoke_run_makes_the_dataset(smoke_run):
             assert (split / "shapes" / f"{i}{suffix}").exists()
         clouds = np.load(split / "points" / f"{i}.npz")
         assert clouds["fps"].shape == (300, 3) and clouds["random"].shape == (300, 3)
-        assert len(list((split / "sketches").glob(f"{i}_*.png"))) == 3
+        assert sorted(p.stem.split("_")[-1] for p in (split / "sketches").glob(f"{i}_*.png")) == ["az35", "az55"]
+    test = smoke_run / "data" / "smoke" / "vase" / "test"      # the novel camera is drawn for the test split only
+    test_id = pd.read_parquet(test / "recipes.parquet")["id"].iloc[0]
+    assert len(list((test / "sketches").glob(f"{test_id}_*.png"))) == 3
     assert not list(smoke_run.rglob("*.tmp"))
 
 
@@ -105,15 +108,15 @@ def test_smoke_run_reaches_the_tables(smoke_run):
     assert np.isfinite(frame.loc["vase", "pc"]) and frame.loc["vase", "pc"] > 0
     assert frame.loc["vase", "pc (paper)"] == 0.00264
     assert "vase mean-shape baseline" in frame.index
-    # the smoke profile fits the clean clouds' predictions: never further from the input
-    assert frame.loc["vase", "pc + fit n"] == 4
+    # the smoke profile fits the clean clouds' predictions of 3 of its 4 shapes: never further from the input
+    assert frame.loc["vase", "pc n"] == 4 and frame.loc["vase", "pc + fit n"] == 3
     fits = pd.concat(pd.read_parquet(p) for p in (smoke_run / "runs" / "smoke" / "vase" / "joint" / "eval"
                                                   / "rebuilt").glob("fit-*.parquet"))
-    assert len(fits) == 8 and (fits.after <= fits.before).all() and (fits.evaluations <= 20).all()
+    assert len(fits) == 6 and (fits.after <= fits.before).all() and (fits.evaluations <= 20).all()
     assert set(fits.condition) == {"pc-fit", "sketch-az35-fit"}
-    assert frame.loc["vase", "sketch + fit n"] == 4 and frame.loc["vase", "sketch + fit"] > 0
+    assert frame.loc["vase", "sketch + fit n"] == 3 and frame.loc["vase", "sketch + fit"] > 0
     cameras = pd.read_csv(tables / "camera_angles.csv", comment="#", index_col=0)
-    assert cameras.loc["vase", "angle 1 + fit n"] == 4
+    assert cameras.loc["vase", "angle 1 + fit n"] == 3
     assert "line drawing is nearest" in (tables / "camera_angles.md").read_text()
     for name in ("camera_angles", "simplified", "sparse", "noise", "stability"):
         assert (tables / f"{name}.md").exists(), name

@@ -242,6 +242,8 @@ class Eval(Group):
     reconstruct_budget: whole(0) = key("program evaluations of the fit of `geocode reconstruct` (--refine)")
     sketch_fit_budget: whole(0) = key("program evaluations of each test sketch's fit (eval.fit, sketch "
                                       "conditions)")
+    max_fit_shapes: Shapes = key("fit the predictions of eval.fit's conditions on at most this many of the "
+                                 "test shapes (an even spread); null: all")
     fit: each(Name) = key("test conditions (pc, pc-noise0.02, sketch-<camera>, ...) whose predictions are "
                           "also fitted: a '+ fit' row or column")
 

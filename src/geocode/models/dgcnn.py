@@ -12,7 +12,13 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-from geocode.models.neighbours import knn, nearest_neighbours, neighbour_max
+from geocode.models.neighbours import (
+    knn,
+    nearest_neighbours,
+    neighbour_max,
+    neighbour_max_arg_sum,
+    neighbour_max_sum_grad,
+)
 
 LEAKY_SLOPE = 0.2
 
@@ -59,13 +65,7 @@ class _NeighbourMaxSum(torch.autograd.Function):
     def forward(ctx, b: torch.Tensor, flat: torch.Tensor, k: int, with_sum: bool):
         if not ctx.needs_input_grad[0] and not with_sum:  # inference
             return neighbour_max(b, flat, k), None
-        p = flat.numel() // k
-        nb = b.index_select(0, flat).view(p, k, -1)  # (P, k, O)
-        total = nb.sum(dim=1) if with_sum else None
-        if not ctx.needs_input_grad[0]:
-            return nb.amax(dim=1), total
-        mx, arg = nb.max(dim=1)  # (P, O) each
-        src = flat.view(p, k).gather(1, arg)  # (P, O) rows of b that won
+        mx, src, total = neighbour_max_arg_sum(b, flat, k, with_sum)
         ctx.save_for_backward(src, flat)
         ctx.k, ctx.rows = k, b.shape[0]
         return mx, total
@@ -73,11 +73,7 @@ class _NeighbourMaxSum(torch.autograd.Function):
     @staticmethod
     def backward(ctx, g_max: torch.Tensor, g_sum: torch.Tensor):
         src, flat = ctx.saved_tensors
-        grad = g_max.new_zeros(ctx.rows, g_max.shape[1])  # (P, O)
-        grad.scatter_add_(0, src, g_max)
-        if g_sum is not None:
-            grad.index_add_(0, flat, g_sum.repeat_interleave(ctx.k, dim=0))  # (P*k, O) summed
-        return grad, None, None, None
+        return neighbour_max_sum_grad(g_max, src, g_sum, flat, ctx.k, ctx.rows), None, None, None
 
 
 def neighbour_max_sum(

@@ -91,6 +91,40 @@ def neighbour_max(b: torch.Tensor, flat: torch.Tensor, k: int) -> torch.Tensor:
         return torch.from_numpy(_gather_max(b.detach().contiguous().numpy(), flat.numpy(), k))
 
 
+def neighbour_max_arg_sum(b: torch.Tensor, flat: torch.Tensor, k: int, with_sum: bool):
+    """(max_j b_j, the row of b each maximum came from, sum_j b_j or None) over each point's
+    neighbours j, for training: on the CPU in one pass, without the (P, k, O) gather.
+
+    Shapes: b (P, O), flat (P*k,) -> (P, O) float, (P, O) int64, (P, O) float or None.
+    """
+    if b.device.type != "cpu":
+        p = flat.numel() // k
+        nb = b.index_select(0, flat).view(p, k, -1)  # (P, k, O)
+        mx, arg = nb.max(dim=1)  # (P, O) each
+        return mx, flat.view(p, k).gather(1, arg), nb.sum(dim=1) if with_sum else None
+    with _numba_threads():
+        mx, src, total = _gather_max_arg_sum(b.detach().contiguous().numpy(), flat.numpy(), k, with_sum)
+    return torch.from_numpy(mx), torch.from_numpy(src), torch.from_numpy(total) if with_sum else None
+
+
+def neighbour_max_sum_grad(g_max: torch.Tensor, src: torch.Tensor, g_sum: torch.Tensor | None,
+                           flat: torch.Tensor, k: int, rows: int) -> torch.Tensor:
+    """The gradient on b of `neighbour_max_arg_sum`: g_max to each maximum's row, g_sum_i to
+    every neighbour of i.
+
+    Shapes: g_max (P, O), src (P, O), g_sum (P, O) or None, flat (P*k,) -> (rows, O).
+    """
+    if g_max.device.type != "cpu":
+        grad = g_max.new_zeros(rows, g_max.shape[1])
+        grad.scatter_add_(0, src, g_max)
+        if g_sum is not None:
+            grad.index_add_(0, flat, g_sum.repeat_interleave(k, dim=0))
+        return grad
+    none = np.zeros((0, g_max.shape[1]), g_max.numpy().dtype)
+    g_sum = none if g_sum is None else g_sum.contiguous().numpy()
+    return torch.from_numpy(_scatter_grad(g_max.contiguous().numpy(), src.numpy(), g_sum, flat.numpy(), k, rows))
+
+
 @contextmanager
 def _numba_threads():
     """Compiled loops use as many threads as torch (OMP_NUM_THREADS, or a job's share).
@@ -142,6 +176,51 @@ def _gather_max(b, flat, k):
             for c in range(len(row)):
                 row[c] = max(row[c], nb[c])
     return out
+
+
+@numba.njit(cache=True, nogil=True, parallel=True, fastmath=FAST)
+def _gather_max_arg_sum(b, flat, k, with_sum):
+    """(P, O) maxima over each k rows of b that flat names, the row each came from (the
+    first where rows tie), and their sums (an empty array unless with_sum)."""
+    p, o = len(flat) // k, b.shape[1]
+    mx = np.empty((p, o), b.dtype)
+    src = np.empty((p, o), np.int64)
+    total = np.empty((p if with_sum else 0, o), b.dtype)
+    for i in numba.prange(p):
+        first = flat[i * k]
+        mx[i] = b[first]
+        src[i] = first
+        if with_sum:
+            total[i] = b[first]
+        for t in range(1, k):
+            j = flat[i * k + t]
+            nb = b[j]
+            for c in range(o):
+                if nb[c] > mx[i, c]:
+                    mx[i, c] = nb[c]
+                    src[i, c] = j
+            if with_sum:
+                for c in range(o):
+                    total[i, c] += nb[c]
+    return mx, src, total
+
+
+@numba.njit(cache=True, nogil=True, fastmath=FAST)
+def _scatter_grad(g_max, src, g_sum, flat, k, rows):
+    """(rows, O): g_max[i, c] added at row src[i, c], and each g_sum row (if any) added at
+    every row of its k in flat. One thread: rows are shared between points."""
+    p, o = g_max.shape
+    grad = np.zeros((rows, o), g_max.dtype)
+    for i in range(p):
+        for c in range(o):
+            grad[src[i, c], c] += g_max[i, c]
+    if g_sum.shape[0]:
+        for i in range(p):
+            for t in range(k):
+                row = grad[flat[i * k + t]]
+                for c in range(o):
+                    row[c] += g_sum[i, c]
+    return grad
 
 
 @numba.njit(cache=True, nogil=True, parallel=True)

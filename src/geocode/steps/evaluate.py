@@ -49,6 +49,12 @@ def test_ids(cfg: DictConfig, domain: str) -> list[str]:
     return spread_subset(recipes, cfg.eval.max_test_shapes)["id"].tolist()
 
 
+def fitted_ids(cfg: DictConfig, ids: list[str]) -> list[str]:
+    """The test shapes whose predictions are also fitted: at most eval.max_fit_shapes of `ids`,
+    evenly spread (the fit costs 10-100x a prediction)."""
+    return spread_subset(pd.DataFrame({"id": ids}), cfg.eval.max_fit_shapes)["id"].tolist()
+
+
 # -- robustness inputs ------------------------------------------------------------------------
 
 def simplify_step(cfg: DictConfig, domain: str, factor: int) -> str:
@@ -117,9 +123,11 @@ def predict_step(cfg: DictConfig, domain: str, checkpoint: Path, out: Path) -> s
     frames = []
     for cond in conditions(cfg, modalities, full):
         start = time.perf_counter()
+        shape_ids = ids
         if cond["modality"] in FITS.values():  # the fit's start: the prediction and its likeliest classes
+            shape_ids = fitted_ids(cfg, ids)
             ranked = [ranked_prediction(model, recipe, *model_input(cfg, domain, unfitted(cond), i), decode)
-                      for i in ids]
+                      for i in shape_ids]
             frame = pd.DataFrame([values for values, _ in ranked])
             frame[OPTIONS] = [json.dumps(options) for _, options in ranked]
         elif cond["modality"] == "pc":
@@ -128,8 +136,8 @@ def predict_step(cfg: DictConfig, domain: str, checkpoint: Path, out: Path) -> s
         else:
             batch = np.stack([load_sketch(sketch_path(cfg, domain, cond, i)) for i in ids])
             frame = pd.DataFrame(predicted_values(model, recipe, predict_classes(model, sketches=batch, decode=decode)))
-        frames.append(frame.assign(**cond, id=ids))
-        log.info("%s: %d shapes in %.1f s", cond["condition"], len(ids), time.perf_counter() - start)
+        frames.append(frame.assign(**cond, id=shape_ids))
+        log.info("%s: %d shapes in %.1f s", cond["condition"], len(shape_ids), time.perf_counter() - start)
     if full:
         frames.append(mean_shape(cfg, domain, recipe))
     table = pd.concat(frames, ignore_index=True)
