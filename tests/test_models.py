@@ -19,7 +19,12 @@ from geocode.models import (
     knn,
 )
 from geocode.models.heads import median_classes, regression_classes, regression_loss
-from geocode.models.neighbours import knn_cells, knn_chunked, neighbour_max_arg_sum, neighbour_max_sum_grad
+from geocode.models.neighbours import (
+    knn_cells,
+    knn_chunked,
+    neighbour_max_arg_sum,
+    neighbour_max_sum_grad,
+)
 
 HEADS = [
     {"name": "size", "n_classes": 5, "continuous": True, "existence": True},
