@@ -420,3 +420,26 @@ def test_embedding_norm_gives_the_shared_decoders_each_modality_standardised():
         torch.testing.assert_close(part.var(dim=0, unbiased=False), torch.ones(part.shape[1]), atol=0.02, rtol=0)  # eps
     assert not torch.allclose(plain[:6].mean(dim=0), plain[6:].mean(dim=0), atol=0.1)   # unlike without
     assert len(GeoCodeModule(HEADS, variant="huang").branches[0].norms) == 0
+
+
+def test_sketch_reader_gives_the_expected_value_of_shown_parameters():
+    """Continuous heads only: the probability-weighted mean of the value classes (their own
+    probabilities renormalised), nothing where the existence class has more than half."""
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    from geocode.checkpoints import sketch_reader
+    from geocode.recipe import RecipeParameter
+
+    height = RecipeParameter("height", "float", 0.0, 1.0, 0.5, 3, np.array([0.0, 0.5, 1.0]))
+    legs = RecipeParameter("legs", "int", 3, 4, 4, None, np.array([3.0, 4.0]))
+    arm = RecipeParameter("arm", "float", 0.0, 2.0, 1.0, 2, np.array([0.0, 2.0]), visible_if=object())
+    logits = {"height": torch.log(torch.tensor([[0.5, 0.25, 0.25], [0.0, 0.0, 1.0]])),
+              "legs": torch.zeros(2, 2),
+              "arm": torch.log(torch.tensor([[0.1, 0.3, 0.6], [0.35, 0.25, 0.4]]))}
+    model = lambda sketches: {"sketch": logits}   # noqa: E731
+    read = sketch_reader(model, SimpleNamespace(parameters=[height, legs, arm]))
+    first, second = read(np.ones((2, 1, 8, 8), dtype=np.float32))
+    assert first == {"height": pytest.approx(0.375)}
+    assert second == {"height": pytest.approx(1.0), "arm": pytest.approx(0.5 / 0.6)}

@@ -8,10 +8,26 @@ import pytest
 import trimesh
 
 from geocode.fit import Start
-from geocode.linedraw import Outline, View, drawing_distance, render, strokes
+from geocode.linedraw import (
+    DrawingDistance,
+    Outline,
+    View,
+    drawing_distance,
+    render,
+    stroke_mask,
+    strokes,
+)
 from geocode.meshio import normalise_unit_sphere
 from geocode.recipe import Parameter
-from geocode.sketchfit import CameraSpace, bounding_box, fit_drawing, framed, mean_curve
+from geocode.sketchfit import (
+    CameraSpace,
+    Shapes,
+    bounding_box,
+    fit_drawing,
+    framed,
+    mean_curve,
+    network_feedback,
+)
 
 DOMAIN = "table"
 
@@ -115,6 +131,46 @@ def test_fit_keeps_the_trained_view_where_a_quarter_turn_draws_nearly_as_well():
     assert result.camera.azimuth == pytest.approx(55.0, abs=5)
     assert result.values["width"] > result.values["depth"]
     assert result.values["width"] == pytest.approx(1.0, abs=0.06)
+
+
+def biased_reader(view: View, bias: float):
+    """A stand-in for the network's reading of the boxes' width: the aspect of the strokes
+    (the spread of their pixels across over that along the image's height), calibrated to the
+    width on two drawings (0.8 and 1.6 wide, depth 0.8), then read `bias` too wide, as a
+    network may misread every drawing alike."""
+    def aspect(image):
+        ys, xs = np.nonzero(stroke_mask(np.squeeze(image)))
+        return xs.std() / ys.std()
+
+    low, high = (aspect(boxes_drawing({"width": w, "depth": 0.8, "count": 1.0}, view)) for w in (0.8, 1.6))
+    return lambda images: [{"width": 0.8 + 0.8 * (aspect(im) - low) / (high - low) + bias} for im in images]
+
+
+def test_network_feedback_cancels_a_reading_biased_alike_on_every_drawing():
+    """The reader sees every width 0.25 too wide: its first reading of a 1.1-wide box's drawing
+    is about 1.4, and the feedback, comparing its readings of the drawing and of each round's
+    drawing, ends within 0.03 of 1.1, drawing nearer the input than the first reading."""
+    view = View(35.0, 30.0)
+    truth = {"width": 1.1, "depth": 0.8, "count": 1.0}
+    drawing = boxes_drawing(truth, view)
+    rounds = network_feedback(biased_reader(view, 0.25), Shapes(BOXES), DrawingDistance(stroke_mask(drawing)),
+                              BOXES, drawing, {**truth, "width": 0.9}, view, rounds=6)
+    assert len(rounds) == 6
+    assert rounds[0][1]["width"] == pytest.approx(1.4, abs=0.05)
+    assert rounds[-1][1]["width"] == pytest.approx(1.1, abs=0.03)
+    assert rounds[-1][0] < rounds[0][0]
+
+
+def test_fit_with_the_feedback_counts_its_rounds_and_starts_from_the_best():
+    view = View(35.0, 30.0)
+    truth = {"width": 1.1, "depth": 0.8, "count": 1.0}
+    drawing = boxes_drawing(truth, view)
+    start = Start({**truth, "width": 0.7}, {"count": [1.0]})
+    kept = dict(budget=40, seed=0, guesses=((35.0, 30.0),))
+    fed = fit_drawing(BOXES, BOXES, [start], drawing, read=biased_reader(view, 0.25), **kept)
+    assert fed.evaluations == len(fed.curve) <= 40
+    # the best round (not the network's start) is where the search went from
+    assert fed.curve[8] < fed.curve[1] and fed.values["width"] == pytest.approx(1.1, abs=0.03)
 
 
 def test_fit_is_deterministic_and_never_worse_than_its_start():

@@ -5,6 +5,7 @@ classes, without Lightning (so `geocode reconstruct` and `predict` start fast).
     predict_classes(model, points=... | sketches=...) -> (N, P) int64
     predict(checkpoint, points=None, sketches=None) -> {"points": (N, P), "sketch": (N, P)}
     ranked_prediction(model, recipe, modality, data, decode) -> (values, {parameter: top classes' values})
+    sketch_reader(model, recipe)(sketches) -> [{continuous parameter: expected value}]
 """
 
 from __future__ import annotations
@@ -169,3 +170,29 @@ def ranked_predictions(model, recipe, modality: str, batch: np.ndarray, decode: 
             options[p.name] = list(dict.fromkeys(values))   # the existence class may repeat one
         out.append((start, options))
     return out
+
+
+def sketch_reader(model, recipe):
+    """A function of a batch of drawings (B, 1, H, W) giving, per drawing, the network's reading
+    of each continuous parameter that it sees as present: the expected raw value under its
+    distribution over the value classes (smooth in the input, where the median and the argmax
+    step from class to class). The drawing fit's feedback (`sketchfit.network_feedback`)
+    compares the readings of the input and of a candidate's line drawing."""
+    heads = [p for p in recipe.parameters if p.kind == "float"]
+
+    def read(sketches: np.ndarray) -> list[dict[str, float]]:
+        with torch.inference_mode():
+            outputs = model(sketches=torch.as_tensor(sketches, dtype=torch.float32))["sketch"]
+        out = [{} for _ in range(len(sketches))]
+        for p in heads:
+            if outputs[p.name].shape[1] != p.n_classes:   # a regression head
+                continue
+            prob = torch.softmax(outputs[p.name], dim=1).numpy()
+            shown = prob[:, :p.n_values]
+            value = shown @ p.classes / np.maximum(shown.sum(axis=1), 1e-12)
+            for b in range(len(out)):
+                if not (p.has_existence and prob[b, -1] > 0.5):
+                    out[b][p.name] = float(value[b])
+        return out
+
+    return read

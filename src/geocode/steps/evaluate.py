@@ -20,7 +20,7 @@ from omegaconf import DictConfig
 
 from geocode import paths
 from geocode.card import write_card
-from geocode.conditions import FITS, MODALITY_NAMES, conditions, robustness, unfitted
+from geocode.conditions import FITS, MODALITY_NAMES, SKETCH_FITTED, conditions, robustness, unfitted
 from geocode.config import NAME
 from geocode.errors import UserError
 from geocode.meshio import (
@@ -191,10 +191,16 @@ def rebuild_step(cfg: DictConfig, domain: str, predictions: Path, shard: int) ->
     names = [c for c in table.columns if c not in KEYS + [OPTIONS]]
     out_dir = paths.rebuilt_dir(predictions)
     jobs, fits = [], []
+    read = None
+    if (table["modality"] == SKETCH_FITTED).any():   # the drawing fit's network feedback
+        from geocode.checkpoints import load_model, sketch_reader
+
+        model = load_model(paths.checkpoint_file(paths.run_of(predictions)), recipe=recipe)
+        read = sketch_reader(model, recipe)
     for r in table.to_dict("records"):
         values = {n: r[n] for n in names}
         if r["modality"] in FITS.values():
-            values, stats = fit_prediction(cfg, domain, program, recipe, r, values)
+            values, stats = fit_prediction(cfg, domain, program, recipe, r, values, read)
             fits.append(stats)
         jobs.append((paths.rebuilt_key(r["condition"], r["id"]), values))
     rebuild(domain, jobs, out_dir, program=program)
@@ -204,17 +210,18 @@ def rebuild_step(cfg: DictConfig, domain: str, predictions: Path, shard: int) ->
     return f"{domain}: rebuilt {len(jobs)} shapes, {len(fits)} of them fitted"
 
 
-def fit_prediction(cfg: DictConfig, domain: str, program, recipe, row: dict, values: dict) -> tuple[dict, dict]:
+def fit_prediction(cfg: DictConfig, domain: str, program, recipe, row: dict, values: dict,
+                   read=None) -> tuple[dict, dict]:
     """(fitted values, the fit's record) of one prediction of a fitted condition: a cloud's
     by `geocode.fit` (eval.fit_budget), a sketch's by `geocode.sketchfit` (its distances in
-    px; eval.sketch_fit_budget)."""
+    px; eval.sketch_fit_budget; `read`: the model's `checkpoints.sketch_reader`)."""
     from geocode.fit import Start, fit
     from geocode.sketchfit import fit_drawing
 
     kind, target = model_input(cfg, domain, unfitted(row), row["id"])
     start = [Start(values, json.loads(row[OPTIONS]))]
     if kind == "sketch":
-        result = fit_drawing(program, recipe, start, target, cfg.eval.sketch_fit_budget, seed=cfg.seed)
+        result = fit_drawing(program, recipe, start, target, cfg.eval.sketch_fit_budget, seed=cfg.seed, read=read)
     else:   # test clouds sit in the program's own frame, so the pose is not searched
         result = fit(program, recipe, start, target, cfg.eval.fit_budget, seed=cfg.seed, pose=False)
     stats = {"condition": row["condition"], "id": row["id"], "before": result.before, "after": result.after,

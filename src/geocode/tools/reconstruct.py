@@ -196,7 +196,7 @@ class Reconstructor:
     def drawing(self, path: Path) -> Reconstruction:
         """The network's answer to a drawing, then (unless --refine 0) `sketchfit`'s search of
         the parameters and the camera; both scored by Freestyle's drawing of them."""
-        from geocode.checkpoints import ranked_prediction
+        from geocode.checkpoints import ranked_prediction, sketch_reader
         from geocode.linedraw import drawing_distance
         from geocode.sketchfit import BUDGET, fit_drawing, freestyle_drawing
 
@@ -208,7 +208,7 @@ class Reconstructor:
         if budget == 0:
             return result
         found = fit_drawing(self.program, self.recipe, [Start(values, options)], sketch, budget,
-                            seed=self.cfg.seed, helpers=self.helpers)
+                            seed=self.cfg.seed, helpers=self.helpers, read=sketch_reader(self.model, self.recipe))
 
         def scored(values: dict, camera) -> tuple[float, np.ndarray]:
             drawn = freestyle_drawing(normalise_unit_sphere(self.program.evaluate(values)), camera)
