@@ -422,14 +422,14 @@ def test_embedding_norm_gives_the_shared_decoders_each_modality_standardised():
     assert len(GeoCodeModule(HEADS, variant="huang").branches[0].norms) == 0
 
 
-def test_sketch_reader_gives_the_expected_value_of_shown_parameters():
+def test_reader_gives_the_expected_value_of_shown_parameters():
     """Continuous heads only: the probability-weighted mean of the value classes (their own
     probabilities renormalised), nothing where the existence class has more than half."""
     from types import SimpleNamespace
 
     import numpy as np
 
-    from geocode.checkpoints import sketch_reader
+    from geocode.checkpoints import reader
     from geocode.recipe import RecipeParameter
 
     height = RecipeParameter("height", "float", 0.0, 1.0, 0.5, 3, np.array([0.0, 0.5, 1.0]))
@@ -439,7 +439,7 @@ def test_sketch_reader_gives_the_expected_value_of_shown_parameters():
               "legs": torch.zeros(2, 2),
               "arm": torch.log(torch.tensor([[0.1, 0.3, 0.6], [0.35, 0.25, 0.4]]))}
     model = lambda sketches: {"sketch": logits}   # noqa: E731
-    read = sketch_reader(model, SimpleNamespace(parameters=[height, legs, arm]))
+    read = reader(model, SimpleNamespace(parameters=[height, legs, arm]), "sketch")
     first, second = read(np.ones((2, 1, 8, 8), dtype=np.float32))
     assert first == {"height": pytest.approx(0.375)}
     assert second == {"height": pytest.approx(1.0), "arm": pytest.approx(0.5 / 0.6)}

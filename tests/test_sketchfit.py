@@ -23,10 +23,10 @@ from geocode.sketchfit import (
     CameraSpace,
     Shapes,
     bounding_box,
+    drawing_feedback,
     fit_drawing,
     framed,
     mean_curve,
-    network_feedback,
 )
 
 DOMAIN = "table"
@@ -146,14 +146,14 @@ def biased_reader(view: View, bias: float):
     return lambda images: [{"width": 0.8 + 0.8 * (aspect(im) - low) / (high - low) + bias} for im in images]
 
 
-def test_network_feedback_cancels_a_reading_biased_alike_on_every_drawing():
+def test_drawing_feedback_cancels_a_reading_biased_alike_on_every_drawing():
     """The reader sees every width 0.25 too wide: its first reading of a 1.1-wide box's drawing
     is about 1.4, and the feedback, comparing its readings of the drawing and of each round's
     drawing, ends within 0.03 of 1.1, drawing nearer the input than the first reading."""
     view = View(35.0, 30.0)
     truth = {"width": 1.1, "depth": 0.8, "count": 1.0}
     drawing = boxes_drawing(truth, view)
-    rounds = network_feedback(biased_reader(view, 0.25), Shapes(BOXES), DrawingDistance(stroke_mask(drawing)),
+    rounds = drawing_feedback(biased_reader(view, 0.25), Shapes(BOXES), DrawingDistance(stroke_mask(drawing)),
                               BOXES, drawing, {**truth, "width": 0.9}, view, rounds=6)
     assert len(rounds) == 6
     assert rounds[0][1]["width"] == pytest.approx(1.4, abs=0.05)

@@ -5,7 +5,7 @@ classes, without Lightning (so `geocode reconstruct` and `predict` start fast).
     predict_classes(model, points=... | sketches=...) -> (N, P) int64
     predict(checkpoint, points=None, sketches=None) -> {"points": (N, P), "sketch": (N, P)}
     ranked_prediction(model, recipe, modality, data, decode) -> (values, {parameter: top classes' values})
-    sketch_reader(model, recipe)(sketches) -> [{continuous parameter: expected value}]
+    reader(model, recipe, modality)(inputs) -> [{continuous parameter: expected value}]
 """
 
 from __future__ import annotations
@@ -172,18 +172,19 @@ def ranked_predictions(model, recipe, modality: str, batch: np.ndarray, decode: 
     return out
 
 
-def sketch_reader(model, recipe):
-    """A function of a batch of drawings (B, 1, H, W) giving, per drawing, the network's reading
-    of each continuous parameter that it sees as present: the expected raw value under its
-    distribution over the value classes (smooth in the input, where the median and the argmax
-    step from class to class). The drawing fit's feedback (`sketchfit.network_feedback`)
-    compares the readings of the input and of a candidate's line drawing."""
+def reader(model, recipe, modality: str):
+    """A function of a batch of inputs of `modality` ("points": (B, N, 3); "sketch": (B, 1, H, W))
+    giving, per input, the network's reading of each continuous parameter that it sees as
+    present: the expected raw value under its distribution over the value classes (smooth in
+    the input, where the median and the argmax step from class to class). The fits' feedback
+    (`fit.network_feedback`) compares the readings of the input and of a candidate."""
     heads = [p for p in recipe.parameters if p.kind == "float"]
+    key = "points" if modality == "points" else "sketches"
 
-    def read(sketches: np.ndarray) -> list[dict[str, float]]:
+    def read(batch: np.ndarray) -> list[dict[str, float]]:
         with torch.inference_mode():
-            outputs = model(sketches=torch.as_tensor(sketches, dtype=torch.float32))["sketch"]
-        out = [{} for _ in range(len(sketches))]
+            outputs = model(**{key: torch.as_tensor(batch, dtype=torch.float32)})[modality]
+        out = [{} for _ in range(len(batch))]
         for p in heads:
             if outputs[p.name].shape[1] != p.n_classes:   # a regression head
                 continue

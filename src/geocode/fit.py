@@ -39,6 +39,8 @@ ALIGN_POINTS = 1024  # ... each pairing this many points of either cloud (a pose
                      # needs few; the distance it returns uses them all)
 MAX_TURN = math.pi / 6   # how far `align` may turn a shape from its start's turn
 SCALE_RANGE = 1.3        # ... and scale it (a factor in [1/1.3, 1.3])
+FEEDBACK = 4             # rounds of `cloud_feedback`, each a start of the fit ...
+FEEDBACK_POINTS = 4096   # ... from this many surface points of its shape
 
 
 @dataclass(frozen=True)
@@ -325,6 +327,54 @@ def fit(program, recipe, starts: Sequence[Start], target: np.ndarray, budget: in
     return FitResult(values=spaces[best_i].values(best_x), pose=found[best_i][2], before=before,
                      after=best, evaluations=len(curve), start=best_i,
                      seconds=time.perf_counter() - started, curve=curve, found=runs_found)
+
+
+def network_feedback(read, render, recipe, wanted: Mapping[str, float], values: Mapping[str, float],
+                     rounds: int) -> list[tuple[dict, np.ndarray]]:
+    """The network's answer corrected by its own misreading, `rounds` times: each round moves
+    every continuous parameter that the network reads by the difference between its reading
+    of the input (`wanted`) and of the current shape rendered as its input (`render`: values
+    -> a cloud or a drawing, None for a shape the program refuses),
+
+        v <- clip(v + r(input) - r(render(v)))     (r = `read`: `checkpoints.reader`),
+
+    the first round from r(render) = v itself (the input's reading). What the network misreads
+    alike in both cancels: the fixed point is the shape that it reads as it reads the input.
+    [(values, rendered)] of each round; it stops early where the recipe's rules fail or the
+    program refuses."""
+    ranges = {p.name: (p.min, p.max) for p in recipe.parameters}
+    values, seen, found = dict(values), {}, []
+    for _ in range(rounds):
+        values.update({k: float(np.clip(values[k] + v - seen.get(k, values[k]), *ranges[k]))
+                       for k, v in wanted.items()})
+        rendered = render(values) if recipe.satisfies(values) else None
+        if rendered is None:
+            break
+        found.append((dict(values), rendered))
+        seen = read(rendered[None])[0]
+    return found
+
+
+def cloud_feedback(read, program, recipe, cloud: np.ndarray, start: Start, points_cfg, seed: int,
+                   rounds: int = FEEDBACK) -> list[Start]:
+    """`network_feedback` on a cloud, as starts of the fit: the network reads the input `cloud`
+    (its canonical cloud, as it saw it) turned to `start`'s turn beside each round's shape,
+    sampled as its clouds are (FEEDBACK_POINTS surface points, then `points.network_cloud`).
+    On the eight development cabinets these starts took the fit 0-7% nearer on every file
+    (median 0.706x -> 0.679x the nearest training shape; docs/wild.md)."""
+    from geocode.points import network_cloud
+
+    rng = np.random.default_rng(seed)
+
+    def render(values: Mapping[str, float]) -> np.ndarray | None:
+        try:
+            return network_cloud(shape_points(program, values, FEEDBACK_POINTS), points_cfg, rng)
+        except ValueError:   # a combination the program refuses
+            return None
+
+    wanted = read(turn_about_z(cloud, -start.turn)[None].astype(np.float32))[0]
+    rounds_found = network_feedback(read, render, recipe, wanted, program.check(start.values), rounds)
+    return [Start(values, start.options, start.turn) for values, _ in rounds_found]
 
 
 def cma_search(objective, x0: np.ndarray, budget: int, seed: int,

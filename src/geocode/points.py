@@ -235,3 +235,13 @@ def points_shard(
     done = paths.done_file(split_dir, "points", shard)
     meshio.write_text(done, "".join(f"{i}\n" for i in ids))
     return done
+
+
+def network_cloud(points: np.ndarray, points_cfg, rng: np.random.Generator) -> np.ndarray:
+    """As the evaluation clouds are: `fps` farthest points + `train_random` random ones."""
+    points = np.asarray(points, dtype=np.float32)
+    n_fps = min(points_cfg.fps, len(points))
+    fps = farthest_point_sampling(points, n_fps)
+    rest = np.setdiff1d(np.arange(len(points)), fps)
+    extra = rng.choice(rest, size=min(points_cfg.train_random, len(rest)), replace=False)
+    return points[np.concatenate([fps, np.sort(extra)])]

@@ -18,8 +18,8 @@ ones counting VIEW_MARGIN px more: the network answers as if the drawing came fr
 a view a quarter-turn away draws a shape of swapped width and depth alike, which the search
 cannot tell apart from the drawing but the program's frame can (on the table test sketches
 this took the fit from 0.92x to 0.43x of the network's distance). Given the network's reader
-(`checkpoints.sketch_reader`), the best start is first corrected by the network itself
-(`network_feedback`, FEEDBACK rounds): its reading of our drawing of the answer is compared
+(`checkpoints.reader`), the best start is first corrected by the network itself
+(`drawing_feedback`, FEEDBACK rounds): its reading of our drawing of the answer is compared
 with its reading of the input, and the difference moves the continuous parameters, which
 cancels what the network misreads alike in both; the best round, by the drawing distance,
 replaces the start (on the first 10 chair and cabinet test sketches of the trained cameras,
@@ -46,7 +46,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from geocode.fit import SearchSpace, Start, cma_search, helper_pool, helper_state, share_out
+from geocode.fit import (
+    SearchSpace,
+    Start,
+    cma_search,
+    helper_pool,
+    helper_state,
+    network_feedback,
+    share_out,
+)
 from geocode.linedraw import SIZE, DrawingDistance, Outline, View, stroke_mask, strokes
 from geocode.meshio import normalise_unit_sphere
 
@@ -73,7 +81,7 @@ STEPS = (0.15, 0.075, 0.04) # the best start's continuous parameters one at a ti
                          # these shares of their ranges in turn
 PRIOR = 0.3              # px per squared unit-box move of the parameters from the start
 CAMERA_PRIOR = 0.0       # ... of the camera's coordinates from the start's view
-FEEDBACK = 6             # rounds of `network_feedback` on the best start
+FEEDBACK = 6             # rounds of `drawing_feedback` on the best start
 CACHE = 8                # shapes kept between evaluations (the starts share theirs)
 
 
@@ -210,7 +218,7 @@ def fit_drawing(program, recipe, starts: Sequence[Start], drawing: np.ndarray,
     and CMA-ES (module docstring) run from the best `restarts`. The result's camera views the
     unit-sphere shape (`meshio.normalise_unit_sphere`) of its values. `helpers`: processes
     that draw the starts and CMA-ES's generations beside this one (`Drawer`). `read`: the
-    network's reading of drawings (`checkpoints.sketch_reader`), for `network_feedback` on the
+    network's reading of drawings (`checkpoints.reader`), for `drawing_feedback` on the
     best start before the search (None: no feedback)."""
     started = time.perf_counter()
     target = stroke_mask(drawing)
@@ -254,7 +262,7 @@ def fit_drawing(program, recipe, starts: Sequence[Start], drawing: np.ndarray,
     if read is not None and math.isfinite(before):   # the network corrects its own reading
         i = int(order[0])
         space, cams = spaces[i]
-        rounds = network_feedback(read, shapes, distance, recipe, drawing, space.start.values, cams.start,
+        rounds = drawing_feedback(read, shapes, distance, recipe, drawing, space.start.values, cams.start,
                                   min(FEEDBACK, budget - len(curve)))
         for d, _ in rounds:
             curve.append(min(d, curve[-1]))
@@ -288,34 +296,20 @@ def fit_drawing(program, recipe, starts: Sequence[Start], drawing: np.ndarray,
                       start=best_i, start_camera=spaces[int(order[0])][1].start, curve=curve)
 
 
-def network_feedback(read, shapes: Shapes, distance: DrawingDistance, recipe, drawing: np.ndarray,
+def drawing_feedback(read, shapes: Shapes, distance: DrawingDistance, recipe, drawing: np.ndarray,
                      values: dict, view: View, rounds: int = FEEDBACK) -> list[tuple[float, dict]]:
-    """The network's answer corrected by its own misreading, `rounds` times: each round draws
-    the current values from `view`, has the network read that drawing, and moves every
-    continuous parameter by the difference between its reading of the input and of ours,
-
-        v <- clip(v + r(input) - r(drawing of v))     (r: `checkpoints.sketch_reader`),
-
-    so that a reading biased the same way on both cancels out (the shape whose drawing the
-    network reads as it reads the input). Both drawings are read as stroke masks, the style
-    our line drawing has. [(drawing distance, values)] of each corrected shape; it stops
-    early where the recipe's rules fail or the program refuses."""
+    """`fit.network_feedback` on a drawing: the network reads the input's strokes and our line
+    drawings from `view`, both as stroke masks (the style our drawing has). [(drawing
+    distance, values)] of each round."""
     def image(mask: np.ndarray) -> np.ndarray:
-        return np.where(mask, 0.0, 1.0).astype(np.float32)[None, None]
+        return np.where(mask, 0.0, 1.0).astype(np.float32)[None]
 
-    wanted = read(image(stroke_mask(drawing)))[0]
-    ranges = {p.name: (p.min, p.max) for p in recipe.parameters}
-    values, seen, found = dict(values), {}, []
-    for _ in range(rounds):
-        values.update({k: float(np.clip(values[k] + v - seen.get(k, values[k]), *ranges[k]))
-                       for k, v in wanted.items()})
-        outline = shapes(values) if recipe.satisfies(values) else None
-        if outline is None:
-            break
-        ink = strokes(outline, view)
-        found.append((distance(ink), dict(values)))
-        seen = read(image(ink))[0]
-    return found
+    def render(values: dict) -> np.ndarray | None:
+        outline = shapes(values)
+        return None if outline is None else image(strokes(outline, view))
+
+    wanted = read(image(stroke_mask(drawing))[None])[0]
+    return [(distance(drawn), v) for v, drawn in network_feedback(read, render, recipe, wanted, values, rounds)]
 
 
 def sweep_discrete(objective, space: SearchSpace, x: np.ndarray, f: float,

@@ -11,7 +11,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from geocode import paths
-from geocode.checkpoints import default_checkpoint, load_model, ranked_prediction, sketch_reader
+from geocode.checkpoints import default_checkpoint, load_model, ranked_prediction, reader
 from geocode.fit import Start
 from geocode.meshio import read_obj
 from geocode.metrics import chamfer_meshes
@@ -39,7 +39,7 @@ def bench_sketch_fit(cfg, domain: str, n: int = 10, camera: str = "trained",
         drawing = load_sketch(paths.sketch_file(test, shape_id, cams[k % len(cams)]))
         start, options = ranked_prediction(model, recipe, "sketch", drawing, cfg.eval.decode)
         result = fit_drawing(program, recipe, [Start(start, options)], drawing, budget, seed=cfg.seed,
-                             read=sketch_reader(model, recipe))
+                             read=reader(model, recipe, "sketch"))
         gt = read_obj(paths.shape_file(paths.shapes_dir(test), shape_id))
         for values, out in ((program.check(start), before), (result.values, after)):
             out.append(chamfer_meshes(program.evaluate(values), gt, n=cfg.eval.chamfer_points,

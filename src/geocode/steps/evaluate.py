@@ -193,10 +193,10 @@ def rebuild_step(cfg: DictConfig, domain: str, predictions: Path, shard: int) ->
     jobs, fits = [], []
     read = None
     if (table["modality"] == SKETCH_FITTED).any():   # the drawing fit's network feedback
-        from geocode.checkpoints import load_model, sketch_reader
+        from geocode.checkpoints import load_model, reader
 
         model = load_model(paths.checkpoint_file(paths.run_of(predictions)), recipe=recipe)
-        read = sketch_reader(model, recipe)
+        read = reader(model, recipe, "sketch")
     for r in table.to_dict("records"):
         values = {n: r[n] for n in names}
         if r["modality"] in FITS.values():
@@ -214,7 +214,7 @@ def fit_prediction(cfg: DictConfig, domain: str, program, recipe, row: dict, val
                    read=None) -> tuple[dict, dict]:
     """(fitted values, the fit's record) of one prediction of a fitted condition: a cloud's
     by `geocode.fit` (eval.fit_budget), a sketch's by `geocode.sketchfit` (its distances in
-    px; eval.sketch_fit_budget; `read`: the model's `checkpoints.sketch_reader`)."""
+    px; eval.sketch_fit_budget; `read`: the model's `checkpoints.reader`)."""
     from geocode.fit import Start, fit
     from geocode.sketchfit import fit_drawing
 

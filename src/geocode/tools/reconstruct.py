@@ -36,6 +36,7 @@ from geocode.fit import (
     FitResult,
     Pose,
     Start,
+    cloud_feedback,
     fit,
     helper_pool,
     network_starts,
@@ -43,7 +44,7 @@ from geocode.fit import (
 )
 from geocode.inputs import CLOUD_SUFFIXES, MESH_SUFFIXES, Geometry, read_geometry, surface_points
 from geocode.meshio import normalise_unit_sphere
-from geocode.points import farthest_point_sampling
+from geocode.points import network_cloud
 
 log = logging.getLogger(__name__)
 
@@ -60,16 +61,6 @@ WORKERS = 8                    # default processes of the fit at most (a CMA-ES 
 SCORE_POINTS = 10000           # points each of the reported (plain) Chamfer distances
 PAGE_NOTE = ("Chamfer distance to the input: unit sphere, squared, mean of both directions / 2;"
              " drawings: mean distance between the strokes (px of 224), both ways / 2")
-
-
-def network_cloud(points: np.ndarray, points_cfg, rng: np.random.Generator) -> np.ndarray:
-    """As the evaluation clouds are: `fps` farthest points + `train_random` random ones."""
-    points = np.asarray(points, dtype=np.float32)
-    n_fps = min(points_cfg.fps, len(points))
-    fps = farthest_point_sampling(points, n_fps)
-    rest = np.setdiff1d(np.arange(len(points)), fps)
-    extra = rng.choice(rest, size=min(points_cfg.train_random, len(rest)), replace=False)
-    return points[np.concatenate([fps, np.sort(extra)])]
 
 
 def sketch_from_image(path: Path) -> np.ndarray:
@@ -196,7 +187,7 @@ class Reconstructor:
     def drawing(self, path: Path) -> Reconstruction:
         """The network's answer to a drawing, then (unless --refine 0) `sketchfit`'s search of
         the parameters and the camera; both scored by Freestyle's drawing of them."""
-        from geocode.checkpoints import ranked_prediction, sketch_reader
+        from geocode.checkpoints import ranked_prediction, reader
         from geocode.linedraw import drawing_distance
         from geocode.sketchfit import BUDGET, fit_drawing, freestyle_drawing
 
@@ -208,7 +199,7 @@ class Reconstructor:
         if budget == 0:
             return result
         found = fit_drawing(self.program, self.recipe, [Start(values, options)], sketch, budget,
-                            seed=self.cfg.seed, helpers=self.helpers, read=sketch_reader(self.model, self.recipe))
+                            seed=self.cfg.seed, helpers=self.helpers, read=reader(self.model, self.recipe, "sketch"))
 
         def scored(values: dict, camera) -> tuple[float, np.ndarray]:
             drawn = freestyle_drawing(normalise_unit_sphere(self.program.evaluate(values)), camera)
@@ -223,6 +214,8 @@ class Reconstructor:
         return result
 
     def shape(self, path: Path) -> Reconstruction:
+        from geocode.checkpoints import reader
+
         geometry = read_geometry(path)
         frames = self.frames(geometry)
         answers = [network_starts(self.model, self.recipe, f.cloud, TURNS, self.cfg.eval.decode) for f in frames]
@@ -232,7 +225,9 @@ class Reconstructor:
         result = Reconstruction(path, geometry.kind, [], frame, geometry=geometry)
         result.network = self.score(frame, network_start.values, s_pose(network_start))
         if self.refine > 0:   # the fit
-            starts = answers[i] + self.nearest_starts(frame, answers[i])
+            starts = (answers[i] + self.nearest_starts(frame, answers[i])
+                      + cloud_feedback(reader(self.model, self.recipe, "points"), self.program, self.recipe,
+                                       frame.cloud, network_start, self.cfg.data.points, self.cfg.seed))
             result.fit = fit(self.program, self.recipe, starts, frame.samples[:TARGET_POINTS],
                              self.refine, seed=self.cfg.seed, restarts=max(2, self.candidates),
                              helpers=self.helpers)
