@@ -226,3 +226,17 @@ def test_freestyle_drawing_follows_the_view(blender):
     theirs = freestyle_drawing(mesh, view)
     assert drawing_distance(ours, theirs) < 0.6
     assert drawing_distance(render(mesh, View(40.0, 25.0)), theirs) > 3.0
+
+
+def test_ratio_interval_brackets_the_ratio_of_means():
+    """The bench's after/before ratio of mean distances and its paired bootstrap interval:
+    exact (a point) where every shape shrinks alike, around the ratio where they differ."""
+    from geocode.bench.sketch_fit import ratio_interval
+
+    before = np.linspace(1.0, 3.0, 30)
+    assert ratio_interval(before, 0.4 * before) == {"ratio": 0.4, "ratio_ci": [0.4, 0.4]}
+    after = before * np.random.default_rng(0).uniform(0.2, 0.8, 30)
+    found = ratio_interval(before, after)
+    low, high = found["ratio_ci"]
+    assert low < found["ratio"] < high and high - low < 0.3
+    assert found["ratio"] == round(after.mean() / before.mean(), 3)
