@@ -376,7 +376,7 @@ def reconstruct(cfg, domain: str, input_path: Path, out_dir: Path, checkpoint: P
     done = [s for s in summaries if "error" not in s]
     seconds = [s["seconds"] for s in done]
     return {"inputs": len(files), "reconstructed": len(done), "failed": len(files) - len(done),
-            "seconds_median": float(np.median(seconds)) if seconds else None,
+            "seconds_median": round(float(np.median(seconds)), 2) if seconds else None,
             "seconds_range": [min(seconds), max(seconds)] if seconds else None,
             "page": str(out_dir / "index.html")}
 
