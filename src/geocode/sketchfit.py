@@ -22,9 +22,10 @@ this took the fit from 0.92x to 0.43x of the network's distance). Given the netw
 (`drawing_feedback`, FEEDBACK rounds): its reading of our drawing of the answer is compared
 with its reading of the input, and the difference moves the continuous parameters, which
 cancels what the network misreads alike in both; the best round, by the drawing distance,
-replaces the start (on the first 10 chair and cabinet test sketches of the trained cameras,
-the fitted Chamfer distance went from 0.59x to 0.46x and from 0.68x to 0.45x of the network's,
-for six of the 800 evaluations; docs/wild.md). From the best RESTARTS of them the search then goes, for each step of STEPS: every discrete parameter's other choices
+replaces the start (on 30 chair test sketches of the trained cameras the fitted Chamfer
+distance went from 0.58x to 0.50x of the network's, for six of the 800 evaluations; on 30
+vases it went from 0.73x to 0.82x: docs/wild.md, Drawings, measured). From the best RESTARTS
+of them the search then goes, for each step of STEPS: every discrete parameter's other choices
 one at a time, then every continuous parameter and camera coordinate +-step one at a time,
 keeping what helps (coordinate sweeps: one parameter mostly moves one part of the drawing,
 and the network's answer is near, so single moves judged alone beat a population of
