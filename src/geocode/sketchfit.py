@@ -24,9 +24,10 @@ with its reading of the input, and the difference moves the continuous parameter
 cancels what the network misreads alike in both; the best round, by the drawing distance,
 replaces the start (on 30 chair test sketches of the trained cameras the fitted Chamfer
 distance went from 0.58x to 0.50x of the network's, for six of the 800 evaluations; on 30
-vases from 0.73x to 0.82x, within the vases' spread: docs/wild.md, Drawings, measured). From the best RESTARTS
-of them the search then goes, for each step of STEPS: every discrete parameter's other choices
-one at a time, then every continuous parameter and camera coordinate +-step one at a time,
+vases from 0.73x to 0.82x, within the vases' spread: docs/wild.md, Drawings, measured).
+From the best RESTARTS of them the search then goes, for each step of STEPS: every discrete
+parameter's other choices one at a time, then every continuous parameter and camera
+coordinate +-step one at a time,
 keeping what helps (coordinate sweeps: one parameter mostly moves one part of the drawing,
 and the network's answer is near, so single moves judged alone beat a population of
 60-dimensional random moves at these budgets); then CMA-ES with per-coordinate steps on

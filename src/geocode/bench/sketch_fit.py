@@ -57,8 +57,8 @@ def bench_sketch_fit(cfg, domain: str, n: int = 10, camera: str = "trained",
 def ratio_interval(before: Sequence[float], after: Sequence[float], resamples: int = 2000,
                    seed: int = 0) -> dict:
     """mean(after) / mean(before) over the shapes, with its 95% percentile bootstrap interval
-    (the shapes resampled in pairs): the issue's targets are on this ratio, and 30 shapes
-    leave it uncertain by several hundredths."""
+    (the shapes resampled in pairs): the targets are on this ratio, and on 30 shapes it is
+    uncertain by about a tenth."""
     before, after = np.asarray(before, dtype=float), np.asarray(after, dtype=float)
     picks = np.random.default_rng(seed).integers(0, len(before), (resamples, len(before)))
     low, high = np.percentile(after[picks].mean(axis=1) / before[picks].mean(axis=1), [2.5, 97.5])
