@@ -23,8 +23,8 @@ this took the fit from 0.92x to 0.43x of the network's distance). Given the netw
 with its reading of the input, and the difference moves the continuous parameters, which
 cancels what the network misreads alike in both; the best round, by the drawing distance,
 replaces the start (on 30 chair test sketches of the trained cameras the fitted Chamfer
-distance went from 0.58x to 0.50x of the network's, for six of the 800 evaluations; on 30
-vases from 0.73x to 0.82x, within the vases' spread: docs/wild.md, Drawings, measured).
+distance went from 0.58x to 0.50x of the network's, for six of the 800 evaluations; on 100
+vases from 0.77x to 0.73x: docs/wild.md, Drawings, measured).
 From the best RESTARTS of them the search then goes, for each step of STEPS: every discrete
 parameter's other choices one at a time, then every continuous parameter and camera
 coordinate +-step one at a time,
