@@ -157,6 +157,22 @@ def test_a_y_up_file_comes_to_the_same_frame_as_a_z_up_one(files):
     assert np.allclose(glb.min(0), obj.min(0), atol=0.05) and np.allclose(glb.max(0), obj.max(0), atol=0.05)
 
 
+def test_the_network_answer_is_the_nearest_of_its_feedback_rounds(files):
+    """--refine 0: the network's answer at its best turn, or one of its own feedback rounds
+    where that lies nearer the input: never farther than the answer it started from."""
+    from geocode.config import compose
+    from geocode.fit import network_starts
+    from geocode.inputs import read_geometry
+    from geocode.tools.reconstruct import TURNS, Reconstructor, s_pose
+
+    run = Reconstructor(compose(["domain=vase"]), "vase", files["ckpt"], refine=0, up="z")
+    result = run(files["root"] / "vase.obj")
+    frame = run.frames(read_geometry(files["root"] / "vase.obj"))[0]
+    _, start = run.best_answer(frame, network_starts(run.model, run.recipe, frame.cloud, TURNS, run.cfg.eval.decode))
+    assert result.network == result.answers[0].chamfer
+    assert result.network <= run.score(frame, start.values, s_pose(start)) + 1e-12
+
+
 def test_drawing_is_brought_to_the_sketch_format(files):
     sketch = sketch_from_image(files["root"] / "drawing.jpg")
     assert sketch.shape == (1, 224, 224) and set(np.unique(sketch)) <= {0.0, 1.0}

@@ -312,16 +312,18 @@ def _normals(points: np.ndarray, seed: int) -> np.ndarray:
     return np.linalg.eigh(np.einsum("nki,nkj->nij", near, near))[1][:, :, 0]
 
 
-def _level_degrees(normals: np.ndarray) -> float:
-    """`level_turn` of these normals (about +Z)."""
+def _level_degrees(normals: np.ndarray, weights: np.ndarray | None = None) -> float:
+    """`level_turn` of these normals (about +Z), each counting `weights` (default 1)."""
     z = normals[:, 0] + 1j * normals[:, 1]
     h2 = np.abs(z) ** 2
-    moment = np.sum(np.where(h2 > 1e-12, z ** 4 / np.maximum(h2, 1e-12), 0.0))
+    moment = np.sum(np.where(h2 > 1e-12, z ** 4 / np.maximum(h2, 1e-12), 0.0)
+                    * (1.0 if weights is None else weights))
     degrees = float(np.degrees(np.angle(moment) / 4)) if abs(moment) > 0 else 0.0
     return 0.0 if abs(degrees) < LEVEL_SNAP else degrees
 
 
-def level_turn(points: np.ndarray, seed: int = 0) -> float:
+def level_turn(points: np.ndarray, seed: int = 0,
+               faces: tuple[np.ndarray, np.ndarray] | None = None) -> float:
     """The turn (degrees, in (-45, 45]) about +Z that squares the surface to the axes: most
     faces of furniture (seat, back, doors, legs) face along two horizontal axes at right
     angles, so the fourth circular moment of the surface normals' horizontal parts,
@@ -330,7 +332,12 @@ def level_turn(points: np.ndarray, seed: int = 0) -> float:
     `reconstruct` blind to how the input was turned: any turn of the same shape reaches the
     same frame up to a quarter-turn, which the front search covers. Furniture square to its
     axes (within LEVEL_SNAP) stays as it is (0), so that a file in the dataset's own pose is
-    read exactly as the dataset is."""
+    read exactly as the dataset is. `faces`: (normals, areas) of a mesh's faces in the frame
+    of `points`, used instead of normals estimated from the points: exact, where the
+    estimated ones leave up to 2 degrees (a turned chair then differs from the unturned one
+    by a quarter-turn to float precision, and a square one is left square)."""
+    if faces is not None:
+        return _level_degrees(*faces)
     normals = _normals(points, seed)
     return _level_degrees(normals) if len(normals) else 0.0
 
@@ -358,14 +365,14 @@ def square_rotation(points: np.ndarray, seed: int = 0) -> np.ndarray:
 
 
 def find_pose(points: np.ndarray, up: str = "auto", domain: str | None = None, robust: bool = False,
-              seed: int = 0, extent: np.ndarray | None = None, squared: bool | None = None) -> Pose:
+              seed: int = 0, mesh=None, squared: bool | None = None) -> Pose:
     """The pose that brings `points` (input frame, surface samples) Z-up into the unit
     sphere: up axis found (`up="auto"`, with `domain`'s weights) or given ("y", "-z", ...),
     turned about it by minus `level_turn` (the pose's `turn`), then centred and scaled by
     `normalise` in the turned frame (the bounding box taken Z-up, as the dataset's is).
-    `extent`: the points that set centre and scale instead, e.g. a mesh's vertices, so that a
-    mesh is normalised exactly as meshio.normalise_unit_sphere does (its samples fall a
-    little inside its vertices' box). `squared` (the default with "auto"; `up` then one of
+    `mesh` (a trimesh.Trimesh; `points` its surface samples): its vertices set centre and
+    scale instead, so that it is normalised exactly as meshio.normalise_unit_sphere does
+    (its samples fall a little inside its vertices' box), and its faces the level turn. `squared` (the default with "auto"; `up` then one of
     `up_candidates`): the axis is one of the cloud squared by `square_rotation`, as the up
     features judged it; where that squares it about another axis than `up` (a cabinet turned
     137 degrees about its z, `up` its x), the shape is squared first, so that a candidate
@@ -377,9 +384,10 @@ def find_pose(points: np.ndarray, up: str = "auto", domain: str | None = None, r
         fixed = np.isclose(np.diag(square), 1.0)
         if not fixed.all() and not fixed[int(np.argmax(np.abs(rotation[2])))]:
             rotation = rotation @ square
-    turn = -level_turn(pts @ rotation.T, seed)
+    faces = None if mesh is None else (np.asarray(mesh.face_normals) @ rotation.T, np.asarray(mesh.area_faces))
+    turn = -level_turn(pts @ rotation.T, seed, faces)
     rotation = turn_z(turn) @ rotation
-    frame = pts if extent is None else np.asarray(extent, dtype=np.float64)
+    frame = pts if mesh is None else np.asarray(mesh.vertices, dtype=np.float64)
     _, centre_rot, scale = normalise(frame @ rotation.T, robust)
     return Pose(rotation, rotation.T @ centre_rot, scale, label if label[:1] in "+-" else "+" + label,
                 turn)

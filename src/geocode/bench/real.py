@@ -6,7 +6,8 @@ that no program made. For each file it runs the reconstruction as `geocode recon
 distance (10,000 surface points each on the input's unit sphere, squared, mean of both
 directions / 2):
 
-    network    the network's best answer over the turns, in the pose the tool found
+    network    the network alone: its answer at the turn nearest the input, corrected by its own
+               feedback (the nearest of its rounds), in the pose the tool found; no search
     fit        network + fit, in the pose the tool found
     defaults   the program's default shape, at the best of four quarter-turns
     nearest    the nearest training shape (`geocode.retrieval`), at the best of four quarter-turns

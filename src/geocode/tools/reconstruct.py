@@ -6,8 +6,11 @@ A mesh or cloud (any file `geocode.inputs` reads) is brought to the training dat
 its up axis found (`--up auto`, `geocode.pose`; with auto, the two likeliest axes are both
 tried), centred and scaled to the unit sphere, and sampled as the dataset's clouds are. The
 network then sees it at TURNS turns about its up axis in one batch (the front of a real shape
-is anyone's guess), and the nearest training shapes join its answers as starts; `geocode.fit`
-scores every start and searches the program's parameters and the shape's pose from the best.
+is anyone's guess), and its answer at the turn nearest the input is corrected by its own
+feedback (`fit.cloud_feedback`); the nearest of those rounds is the network's answer (all of
+`--refine 0`). Its answers, its feedback rounds and the nearest training shapes are the
+starts of `geocode.fit`, which scores every start and searches the program's parameters and
+the shape's pose from the best.
 A drawing of any size and stroke width is cropped to its strokes, scaled to the sketches'
 extent, its strokes thinned or thickened to theirs (2 px), and binarised onto a 224x224 white
 canvas; the network answers it, and `geocode.sketchfit` searches the parameters and the camera
@@ -131,7 +134,8 @@ class Reconstruction:
     kind: str                          # "mesh", "cloud" or "drawing"
     answers: list[Answer]              # best first; [0] is the result
     frame: Frame | None = None         # 3D inputs
-    network: float | None = None       # plain Chamfer distance of the network's best answer
+    network: float | None = None       # plain Chamfer distance of the network's answer (its best
+                                       # turn, then the nearest of its feedback rounds)
                                        # (drawings: the drawing distance in px, as `after`)
     geometry: Geometry | None = None
     drawing: np.ndarray | None = None  # (1, 224, 224), drawings
@@ -219,24 +223,21 @@ class Reconstructor:
         geometry = read_geometry(path)
         frames = self.frames(geometry)
         answers = [network_starts(self.model, self.recipe, f.cloud, TURNS, self.cfg.eval.decode) for f in frames]
-        scored = [self.best_answer(f, a) for f, a in zip(frames, answers, strict=True)]
-        i = int(np.argmin([d for d, _ in scored]))   # the up axis whose best answer is nearest
-        frame, network_start = frames[i], scored[i][1]
+        read = reader(self.model, self.recipe, "points")
+        found = [self.network_answer(f, a, read) for f, a in zip(frames, answers, strict=True)]
+        i = int(np.argmin([a.chamfer for a, _ in found]))   # the up axis whose answer is nearest
+        frame, (network, feedback) = frames[i], found[i]
         result = Reconstruction(path, geometry.kind, [], frame, geometry=geometry)
-        result.network = self.score(frame, network_start.values, s_pose(network_start))
+        result.network = network.chamfer
         if self.refine > 0:   # the fit
-            starts = (answers[i] + self.nearest_starts(frame, answers[i])
-                      + cloud_feedback(reader(self.model, self.recipe, "points"), self.program, self.recipe,
-                                       frame.cloud, network_start, self.cfg.data.points, self.cfg.seed))
+            starts = answers[i] + self.nearest_starts(frame, answers[i]) + feedback
             result.fit = fit(self.program, self.recipe, starts, frame.samples[:TARGET_POINTS],
                              self.refine, seed=self.cfg.seed, restarts=max(2, self.candidates),
                              helpers=self.helpers)
             fitted = [Answer(v, w, self.score(frame, v, w)) for v, w in result.fit.found]
-            network = Answer(self.program.check(network_start.values), s_pose(network_start), result.network)
             result.answers = distinct_answers([*fitted, network], self.candidates)
         else:
-            result.answers = [Answer(self.program.check(network_start.values), s_pose(network_start),
-                                     result.network)]
+            result.answers = [network]
         best = result.answers[0]
         result.summary.update(
             note=geometry.note, up=frame.pose.up, pose=placement(frame, best.where),
@@ -249,13 +250,26 @@ class Reconstructor:
         samples = surface_points(geometry, self.cfg.data.points.surface, rng)
         ups = (poses.up_candidates(samples, self.domain, UP_CANDIDATES) if self.up == "auto"
                else [self.up])
-        extent = geometry.mesh.vertices if geometry.mesh is not None else None
         frames = []
         for up in ups:
-            pose = poses.find_pose(samples, up=up, domain=self.domain, extent=extent, squared=self.up == "auto")
+            pose = poses.find_pose(samples, up=up, domain=self.domain, mesh=geometry.mesh, squared=self.up == "auto")
             canonical = pose.to_canonical(samples).astype(np.float32)
             frames.append(Frame(pose, canonical, network_cloud(canonical, self.cfg.data.points, rng)))
         return frames
+
+    def network_answer(self, frame: Frame, answers: list[Start], read) -> tuple[Answer, list[Start]]:
+        """The network's answer in one frame: its answer at the turn nearest the input
+        (`answers`: one per turn), or the nearest of its own feedback rounds from there
+        (`fit.cloud_feedback`, `read` the network's reader); and those rounds, as starts of the
+        fit. The up axis is chosen by these answers, after the feedback: a box's first answer
+        may fit as well on a side or upside down, its corrected ones less often (the
+        development set: docs/wild.md)."""
+        _, start = self.best_answer(frame, answers)
+        feedback = cloud_feedback(read, self.program, self.recipe, frame.cloud, start, self.cfg.data.points,
+                                  self.cfg.seed)
+        best = min((Answer(self.program.check(s.values), s_pose(s), self.score(frame, s.values, s_pose(s)))
+                    for s in [start, *feedback]), key=lambda a: a.chamfer)
+        return best, feedback
 
     def best_answer(self, frame: Frame, answers: list[Start]) -> tuple[float, Start]:
         """(plain distance, answer) of the network's answer (one per turn) nearest the input."""
