@@ -364,6 +364,12 @@ def square_rotation(points: np.ndarray, seed: int = 0) -> np.ndarray:
     return best
 
 
+def _up_squareness(normals: np.ndarray, rotation: np.ndarray) -> float:
+    """How squarely the surface faces along the up axis that `rotation` brings to +Z: the mean
+    of n_z^4 over the normals (1: every face looks up or down)."""
+    return float(np.mean((normals @ rotation[2]) ** 4)) if len(normals) else 0.0
+
+
 def find_pose(points: np.ndarray, up: str = "auto", domain: str | None = None, robust: bool = False,
               seed: int = 0, mesh=None, squared: bool | None = None) -> Pose:
     """The pose that brings `points` (input frame, surface samples) Z-up into the unit
@@ -376,14 +382,19 @@ def find_pose(points: np.ndarray, up: str = "auto", domain: str | None = None, r
     `up_candidates`): the axis is one of the cloud squared by `square_rotation`, as the up
     features judged it; where that squares it about another axis than `up` (a cabinet turned
     137 degrees about its z, `up` its x), the shape is squared first, so that a candidate
-    other than the true up still lays the shape square on a side, as it would unturned."""
+    other than the true up still lays the shape square on a side, as it would unturned. Only
+    where that squares the up axis itself (`_up_squareness`): a vase whose sloping walls square
+    better tilted stays upright."""
     pts = np.asarray(points, dtype=np.float64)
     rotation, label = up_axis(pts, domain, seed) if up == "auto" else (axis_rotation(up), up)
     if squared or (squared is None and up == "auto"):
-        square = square_rotation(_feature_sample(pts, seed), seed)
+        sample = _feature_sample(pts, seed)
+        square = square_rotation(sample, seed)
         fixed = np.isclose(np.diag(square), 1.0)
         if not fixed.all() and not fixed[int(np.argmax(np.abs(rotation[2])))]:
-            rotation = rotation @ square
+            normals = _normals(sample, seed)
+            if _up_squareness(normals, rotation @ square) > _up_squareness(normals, rotation):
+                rotation = rotation @ square
     faces = None if mesh is None else (np.asarray(mesh.face_normals) @ rotation.T, np.asarray(mesh.area_faces))
     turn = -level_turn(pts @ rotation.T, seed, faces)
     rotation = turn_z(turn) @ rotation

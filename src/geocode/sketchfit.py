@@ -56,6 +56,8 @@ from geocode.fit import (
     helper_state,
     network_feedback,
     share_out,
+    sweep_continuous,
+    sweep_discrete,
 )
 from geocode.linedraw import SIZE, DrawingDistance, Outline, View, stroke_mask, strokes
 from geocode.meshio import normalise_unit_sphere
@@ -281,7 +283,7 @@ def fit_drawing(program, recipe, starts: Sequence[Start], drawing: np.ndarray,
             x, f = sweep_discrete(lambda x, i=int(i): objective(i, x), spaces[i][0], x, f,
                                   budget - len(curve))
             x, f = sweep_continuous(lambda x, i=int(i): objective(i, x), spaces[i][0], x, f,
-                                    budget - len(curve), step)
+                                    budget - len(curve), step, extra=6)
         share = (budget - len(curve)) // (len(runs) - r)
         stds = np.concatenate([np.full(len(x) - 6, SIGMA), CAMERA_SIGMA])
         y, g = cma_search(lambda xs, i=int(i): evaluate([(i, x) for x in xs]), x, share, seed + r, stds)
@@ -312,51 +314,6 @@ def drawing_feedback(read, shapes: Shapes, distance: DrawingDistance, recipe, dr
 
     wanted = read(image(stroke_mask(drawing))[None])[0]
     return [(distance(drawn), v) for v, drawn in network_feedback(read, render, recipe, wanted, values, rounds)]
-
-
-def sweep_discrete(objective, space: SearchSpace, x: np.ndarray, f: float,
-                   budget: int) -> tuple[np.ndarray, float]:
-    """Greedy: each discrete parameter in turn tries its other candidate values (the network's
-    next choices), keeping any that lowers `objective`; at most `budget` evaluations. CMA-ES
-    moves a discrete coordinate only as one of dozens at once, so that a wrong class of the
-    network (a leg or slat count) is rarely corrected without this sweep."""
-    x, used = np.array(x, dtype=np.float64), 0
-    first = len(space.continuous)
-    for j, (_, values) in enumerate(space.discrete):
-        for k in range(1, len(values)):
-            if used >= budget:
-                return x, f
-            y = x.copy()
-            y[first + j] = (k + 0.5) / len(values)
-            g = objective(y)
-            used += 1
-            if g < f:
-                x, f = y, g
-    return x, f
-
-
-def sweep_continuous(objective, space: SearchSpace, x: np.ndarray, f: float, budget: int,
-                     step: float = 0.15) -> tuple[np.ndarray, float]:
-    """Greedy: each continuous parameter, then each camera coordinate (the last six), in turn
-    tries +-`step` in the unit box (the second side only when the first does not help),
-    keeping what lowers `objective`; at most `budget` evaluations. Most parameters change one
-    part of the drawing; one at a time, each change is judged on its own, where a population
-    of random moves of all of them at once mixes good and bad ones."""
-    x, used = np.array(x, dtype=np.float64), 0
-    for j in [*range(len(space.continuous)), *range(len(x) - 6, len(x))]:
-        for sign in (1.0, -1.0):
-            if used >= budget:
-                return x, f
-            y = x.copy()
-            y[j] = np.clip(y[j] + sign * step, 0.0, 1.0)
-            if y[j] == x[j]:
-                continue
-            g = objective(y)
-            used += 1
-            if g < f:
-                x, f = y, g
-                break
-    return x, f
 
 
 # -- benches ------------------------------------------------------------------------------------
