@@ -35,6 +35,7 @@ LEVEL_POINTS = 8000        # level_turn looks at this many points (subsampled, s
 LEVEL_NEIGHBOURS = 10      # ... and fits a plane to each one's nearest
 LEVEL_SNAP = 1.0           # degrees: a shape this near square to the axes is left as it is
 SQUARE_GAIN = 0.02         # square_rotation turns a file only when that squares it this much more
+TILT_GAIN = 0.04           # ... and find_pose tilts a candidate's up axis by it only for this much
 
 
 def axis_rotation(label: str) -> np.ndarray:
@@ -364,6 +365,11 @@ def square_rotation(points: np.ndarray, seed: int = 0) -> np.ndarray:
     return best
 
 
+def _squareness(normals: np.ndarray, rotation: np.ndarray) -> float:
+    """`square_rotation`'s measure: the mean of n_x^4 + n_y^4 + n_z^4 over the turned normals."""
+    return float(((normals @ rotation.T) ** 4).sum(axis=1).mean()) if len(normals) else 0.0
+
+
 def _up_squareness(normals: np.ndarray, rotation: np.ndarray) -> float:
     """How squarely the surface faces along the up axis that `rotation` brings to +Z: the mean
     of n_z^4 over the normals (1: every face looks up or down)."""
@@ -383,8 +389,9 @@ def find_pose(points: np.ndarray, up: str = "auto", domain: str | None = None, r
     features judged it; where that squares it about another axis than `up` (a cabinet turned
     137 degrees about its z, `up` its x), the shape is squared first, so that a candidate
     other than the true up still lays the shape square on a side, as it would unturned. Only
-    where that squares the up axis itself (`_up_squareness`): a vase whose sloping walls square
-    better tilted stays upright."""
+    where that squares the up axis itself (`_up_squareness`) or the whole surface by at least
+    TILT_GAIN: a vase whose sloping walls square a little better tilted (0.02) stays upright,
+    a cabinet turned off its axes (0.05-0.26) is laid square."""
     pts = np.asarray(points, dtype=np.float64)
     rotation, label = up_axis(pts, domain, seed) if up == "auto" else (axis_rotation(up), up)
     if squared or (squared is None and up == "auto"):
@@ -393,7 +400,8 @@ def find_pose(points: np.ndarray, up: str = "auto", domain: str | None = None, r
         fixed = np.isclose(np.diag(square), 1.0)
         if not fixed.all() and not fixed[int(np.argmax(np.abs(rotation[2])))]:
             normals = _normals(sample, seed)
-            if _up_squareness(normals, rotation @ square) > _up_squareness(normals, rotation):
+            if (_up_squareness(normals, rotation @ square) > _up_squareness(normals, rotation)
+                    or _squareness(normals, square) - _squareness(normals, np.eye(3)) >= TILT_GAIN):
                 rotation = rotation @ square
     faces = None if mesh is None else (np.asarray(mesh.face_normals) @ rotation.T, np.asarray(mesh.area_faces))
     turn = -level_turn(pts @ rotation.T, seed, faces)
