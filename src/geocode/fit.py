@@ -16,8 +16,8 @@ sweeps of smaller steps from the best shape found. The sweeps make the fit end n
 shape from nearby starts: on the first 10 test chairs, each fitted as given and turned by 137
 degrees (whose starts differ a little), CMA-ES alone ended within 1.2x of itself on 5 of 10
 and with the sweeps on 10 of 10, at a lower median distance (docs/wild.md, Turns). The fit
-returns the best shape seen, so it never makes the distance worse than the best start. The distance it minimises tolerates partial scans and outliers
-(`CloudDistance`, docs/wild.md).
+returns the best shape seen, so it never makes the distance worse than the best start. The
+distance it minimises tolerates partial scans and outliers (`CloudDistance`, docs/wild.md).
 """
 
 from __future__ import annotations
@@ -338,8 +338,10 @@ def fit(program, recipe, starts: Sequence[Start], target: np.ndarray, budget: in
         x, f = (y, g) if g < f else (x, f)
         if f < best:
             best, best_x, best_i = f, x, int(i)
+    def polish(y: np.ndarray) -> float:
+        return evaluate([(best_i, y)])[0]
+
     for step in POLISH_STEPS if POLISH else ():
-        polish = lambda y: evaluate([(best_i, y)])[0]   # noqa: E731
         best_x, best = sweep_discrete(polish, spaces[best_i], best_x, best, budget - len(curve))
         best_x, best = sweep_continuous(polish, spaces[best_i], best_x, best, budget - len(curve), step)
     runs_found = [(spaces[i].values(found[i][1]), found[i][2]) for i in runs if i in found]

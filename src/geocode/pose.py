@@ -384,8 +384,8 @@ def find_pose(points: np.ndarray, up: str = "auto", domain: str | None = None, r
     `normalise` in the turned frame (the bounding box taken Z-up, as the dataset's is).
     `mesh` (a trimesh.Trimesh; `points` its surface samples): its vertices set centre and
     scale instead, so that it is normalised exactly as meshio.normalise_unit_sphere does
-    (its samples fall a little inside its vertices' box), and its faces the level turn. `squared` (the default with "auto"; `up` then one of
-    `up_candidates`): the axis is one of the cloud squared by `square_rotation`, as the up
+    (its samples fall a little inside its vertices' box), and its faces the level turn.
+    `squared` (the default with "auto"; `up` then one of `up_candidates`): the axis is one of the cloud squared by `square_rotation`, as the up
     features judged it; where that squares it about another axis than `up` (a cabinet turned
     137 degrees about its z, `up` its x), the shape is squared first, so that a candidate
     other than the true up still lays the shape square on a side, as it would unturned. Only
