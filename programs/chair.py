@@ -1,4 +1,4 @@
-"""The chair program (67 parameters: 16 discrete, 51 continuous).
+"""The chair program (69 parameters: 17 discrete, 52 continuous).
 
 Layout: x = width, y = depth (the backrest at +y), z = up; a 0.5 x 0.5 seat before the
 overall scale. Structure (every part touches the rest for every parameter combination):
@@ -8,7 +8,8 @@ overall scale. Structure (every part touches the rest for every parameter combin
 - cushion: MeshCushion sunk a little into the seat's top;
 - legs: four MeshLegs from under the seat corners to z = 0, optionally on a sled base
   (a MeshStraightFrame runner on the floor through each side's feet, the two optionally
-  joined at the back by a tube across), or a monoleg (a column with StyleBezierSegment: a
+  joined at the back by a tube across), optionally joined by stretchers (MeshStraightFrame
+  bars, a box or an H, their ends sampled on the legs' own axes), or a monoleg (a column with StyleBezierSegment: a
   pedestal, or a slimmer column on tent legs: radial MeshQuadraticCartesian, optionally
   on caster wheels, MeshStraightFrame);
 - backrest: two frames (MeshQuadraticCartesianAlignedXYFrame, mirrored in x) rising from
@@ -53,7 +54,8 @@ from geocode.nodes import (
 
 # labels (segmentation)
 (SEAT, CUSHION, LEGS, BACK_FRAME, CROSS_RAILS, VERTICAL_RAILS, TOP_RAIL, BACK_PANEL,
- ARMRESTS, ARM_SUPPORTS, ARM_PADS, MONOLEG, TENT_LEGS, CASTERS, SIDE_PANELS) = range(1, 16)
+ ARMRESTS, ARM_SUPPORTS, ARM_PADS, MONOLEG, TENT_LEGS, CASTERS, SIDE_PANELS,
+ STRETCHERS) = range(1, 17)
 
 SEAT_SIZE = 0.5          # width and depth of the seat before the overall scale
 LEG_INSET = 1.2          # legs sit this many radii inside the seat's corner
@@ -62,6 +64,7 @@ TENT_HUB = 0.06          # height of the monoleg's foot above the floor with ten
 TENT_COLUMN = 0.35       # a column on tent legs: this share of a pedestal's profile
 CASTER_LIFT = 1.8        # tent legs' ends above the floor, in caster radii (sunk in the wheel)
 CASTER_WIDTH = 0.8       # width of a caster wheel, in radii
+STRETCHER_SHARE = 0.8    # a stretcher's width, in leg thicknesses (a leg is 2 wide, tapered 1)
 PAD_SINK = 0.3           # share of an armrest pad sunk into its armrest
 ARM_LOOP_BULGE = 0.35    # bulge of a loop armrest, as a share of its chord
 
@@ -90,6 +93,8 @@ def _parameters(g: Graph) -> dict:
     add("back_leg_offset", "float", 0.03, 0.0, 0.1, "how far back the back feet reach")
     add("sled_base", "bool", False, 0, 1, "a runner on the floor joining each side's feet")
     add("sled_joined", "bool", False, 0, 1, "a tube across joining the runners at the back")
+    add("stretchers", "int", 0, 0, 2, "bars between the legs: 0 none, 1 a box, 2 an H")
+    add("stretcher_height", "float", 0.3, 0.15, 0.5, "stretchers' place (share of the leg from the foot)")
     add("monoleg_top_radius", "float", 0.06, 0.03, 0.12, "monoleg Bezier profile: top")
     add("monoleg_top_handle", "float", 0.06, 0.03, 0.12, "monoleg Bezier profile: upper handle")
     add("monoleg_bottom_handle", "float", 0.1, 0.05, 0.2, "monoleg Bezier profile: lower handle")
@@ -225,12 +230,14 @@ def _four_legs(c: _Chair):
     feet = {"front": g.vec(x + splay, -y - splay, 0.0),
             "back": g.vec(x + splay, y + splay + p["back_leg_offset"], 0.0)}
     tops = {"front": g.vec(x, -y, c.inside), "back": g.vec(x, y, c.inside)}
-    legs = [leg_mesh(g, top=tops[k], bottom=feet[k], curvature=p["leg_curvature"],
-                     top_radius=p["leg_thickness"],
-                     bottom_radius=p["leg_thickness"] * p["leg_taper"],
-                     roundness=p["leg_bevel"], label=LEGS)["Mesh"] for k in ("front", "back")]
+    legs = {k: leg_mesh(g, top=tops[k], bottom=feet[k], curvature=p["leg_curvature"],
+                        top_radius=p["leg_thickness"],
+                        bottom_radius=p["leg_thickness"] * p["leg_taper"],
+                        roundness=p["leg_bevel"], label=LEGS) for k in ("front", "back")}
     runner = g.when(p["sled_base"], _sled(c, feet["front"], feet["back"]))
-    return g.when(p["monoleg"], None, g.join([*legs, runner]))
+    stretchers = _stretchers(c, legs["front"]["Curve"], legs["back"]["Curve"])
+    return g.when(p["monoleg"], None, g.join([legs["front"]["Mesh"], legs["back"]["Mesh"],
+                                              runner, stretchers]))
 
 
 def _sled(c: _Chair, front, back):
@@ -249,6 +256,33 @@ def _sled(c: _Chair, front, back):
                             depth=radius * 2.0, roundness=p["leg_bevel"],
                             axis=(0.0, 1.0, 0.0), label=LEGS)["Mesh"]
     return g.join([runner, g.when(p["sled_joined"], across)])
+
+
+def _stretchers(c: _Chair, front_axis, back_axis):
+    """By `stretchers`: none; a box (the right side bar from the front leg to the back one,
+    and the right halves of the bars across the front and the back, from x = 0: the mirror
+    adds the rest); or an H (the side bar and the right half of one bar across from its
+    middle). The ends are sampled at `stretcher_height` of the length from the foot on the
+    very curves the legs are swept along, so they lie on the legs' axes for any splay,
+    offset or curvature; the bars are `STRETCHER_SHARE` leg thicknesses wide, narrower than
+    a leg anywhere along it (its half-width is at least half the top's for any taper)."""
+    g, p = c.g, c.p
+    factor = 1.0 - p["stretcher_height"]   # the curves run from the top down to the foot
+    front = sample_curve(g, curve=front_axis, factor=factor)["Position"]
+    back = sample_curve(g, curve=back_axis, factor=factor)["Position"]
+    size = p["leg_thickness"] * STRETCHER_SHARE
+
+    def bar(start, end, axis=(1.0, 0.0, 0.0)):
+        return straight_frame(g, start=start, end=end, width=size, depth=size,
+                              roundness=p["leg_bevel"], axis=axis, label=STRETCHERS)["Mesh"]
+
+    def across(point):   # the right half of a bar across, ending on `point`
+        return bar(g.vec(0.0, point.y, point.z), point, axis=(0.0, 1.0, 0.0))
+
+    side = bar(front, back)
+    box = g.join([side, across(front), across(back)])
+    h_frame = g.join([side, across((front + back) * 0.5)])
+    return g.index_switch(p["stretchers"], [None, box, h_frame])
 
 
 def _monoleg(c: _Chair):

@@ -7,7 +7,7 @@ import pytest
 pytest.importorskip("bpy")
 
 from geocode.program import part_mesh  # noqa: E402
-from geocode.stability import drop_test, loose_parts  # noqa: E402
+from geocode.stability import _winding_number, drop_test, loose_parts  # noqa: E402
 
 pytestmark = pytest.mark.blender
 
@@ -26,8 +26,8 @@ def _vertices(mesh, *labels) -> np.ndarray:
 def test_parameters_cover_the_chair(program):
     names = {p.name for p in program.parameters}
     kinds = [p.kind for p in program.parameters]
-    assert len(names) == 67
-    assert kinds.count("float") == 51 and len(kinds) - kinds.count("float") == 16
+    assert len(names) == 69
+    assert kinds.count("float") == 52 and len(kinds) - kinds.count("float") == 17
     expected = {
         "scale_x", "scale_y", "scale_z", "seat_height", "seat_roundness", "cushion",
         "cushion_fill", "cross_rail_count", "cross_rail_thickness_y", "cross_rail_thickness_z",
@@ -40,7 +40,7 @@ def test_parameters_cover_the_chair(program):
         "armrest_style", "armrest_support", "armrest_cushion", "armrest_width",
         "armrest_back_height", "armrest_front_height", "armrest_mid", "armrest_edge",
         "rail_bevel", "sled_base", "sled_joined", "casters", "caster_size",
-        "side_panels", "side_panel_drop",
+        "side_panels", "side_panel_drop", "stretchers", "stretcher_height",
     }
     assert expected <= names, expected - names
     for p in program.parameters:
@@ -63,6 +63,9 @@ def test_visibility_rules_are_inferred_from_the_switches(program):
     assert rules["side_panels"] is None
     assert rules["side_panel_drop"] == "side_panels"
     assert rules["sled_joined"] == "not monoleg and sled_base"
+    assert rules["stretchers"] == "not monoleg"
+    assert rules["stretcher_height"] == ("not monoleg and stretchers == 1 "
+                                         "or not monoleg and stretchers == 2")
     assert rules["caster_size"] == "casters and monoleg and tent_legs"
 
 
@@ -76,6 +79,8 @@ def test_visibility_rules_are_inferred_from_the_switches(program):
     ({"monoleg": 1}, {"sled_base": 1, "sled_joined": 1}),
     ({"monoleg": 1, "tent_legs": 0}, {"casters": 1, "caster_size": 0.04}),
     ({"side_panels": 0}, {"side_panel_drop": 0.0}),
+    ({"monoleg": 1}, {"stretchers": 2}),
+    ({"stretchers": 0}, {"stretcher_height": 0.5}),
 ])
 def test_invisible_parameters_leave_the_mesh_unchanged(program, hidden, change):
     before = program.evaluate(hidden)
@@ -105,6 +110,10 @@ def test_every_part_carries_its_own_label(program, label):
     solid = program.evaluate({"backrest_solid": 1, "armrest_style": 2})
     assert set(solid.metadata["part"]) == {label.SEAT, label.LEGS, label.BACK_FRAME,
                                            label.BACK_PANEL, label.ARMRESTS}
+    braced = program.evaluate({"stretchers": 1, "sled_base": 1})
+    assert set(braced.metadata["part"]) == {label.SEAT, label.LEGS, label.BACK_FRAME,
+                                            label.CROSS_RAILS, label.TOP_RAIL,
+                                            label.STRETCHERS}
     office = program.evaluate({"backrest_solid": 1, "side_panels": 1, "monoleg": 1,
                                "tent_legs": 1, "casters": 1})
     assert set(office.metadata["part"]) == {label.SEAT, label.BACK_FRAME, label.BACK_PANEL,
@@ -227,6 +236,51 @@ def test_sled_runners_join_each_sides_feet_on_the_floor(program, label):
     joined = _vertices(program.evaluate({**legs, "sled_base": 1, "sled_joined": 1}), label.LEGS)
     centre = joined[np.abs(joined[:, 0]) < 0.05]
     assert len(centre) and centre[:, 1].min() > 0.2 and centre[:, 2].max() < 0.05
+
+
+LEG_EXTREMES = [
+    {"leg_splay": 0.08, "back_leg_offset": 0.1, "leg_curvature": 1.0, "leg_taper": 0.5,
+     "leg_thickness": 0.015, "stretcher_height": 0.15},
+    {"leg_splay": 0.08, "back_leg_offset": 0.0, "leg_curvature": 0.0, "leg_taper": 1.2,
+     "leg_thickness": 0.04, "stretcher_height": 0.5, "leg_bevel": 1.0},
+    {"leg_splay": 0.0, "back_leg_offset": 0.1, "leg_curvature": 0.5, "leg_taper": 0.5,
+     "leg_thickness": 0.04, "stretcher_height": 0.5, "seat_roundness": 1.0},
+]
+
+
+@pytest.mark.parametrize("legs", LEG_EXTREMES)
+def test_stretchers_end_inside_the_legs_at_any_splay_and_curvature(program, label, legs):
+    for style in (1, 2):
+        mesh = program.evaluate({**legs, "stretchers": style})
+        bars = _vertices(mesh, label.STRETCHERS)
+        assert loose_parts(part_mesh(mesh, label.LEGS, label.STRETCHERS)) == 0
+        # the side bars' end sections (the vertices nearest the front and the back) lie
+        # inside the legs, not merely against them
+        size = legs["leg_thickness"]
+        ends = bars[(bars[:, 1] < bars[:, 1].min() + size) |
+                    (bars[:, 1] > bars[:, 1].max() - size)]
+        if style == 1:   # the bars across share the ends' y: keep the side bars' rings
+            ends = ends[np.abs(ends[:, 0]) > np.abs(bars[:, 0]).max() - size]
+        assert len(ends) >= 8
+        legs_mesh = part_mesh(mesh, label.LEGS)
+        inside = np.abs(_winding_number(ends, legs_mesh.triangles))
+        assert (inside > 0.5).all(), style
+    # a box joins all four legs at the front and the back; an H crosses between the sides
+    box = _vertices(program.evaluate({**legs, "stretchers": 1}), label.STRETCHERS)
+    h = _vertices(program.evaluate({**legs, "stretchers": 2}), label.STRETCHERS)
+    centre = lambda v: v[np.abs(v[:, 0]) < 0.05]  # noqa: E731
+    assert np.ptp(centre(box)[:, 1]) > 0.3
+    assert np.ptp(centre(h)[:, 1]) < 0.05
+
+
+def test_stretcher_height_moves_the_bars_up_the_legs(program, label):
+    low = _vertices(program.evaluate({"stretchers": 2, "stretcher_height": 0.15}),
+                    label.STRETCHERS)
+    high = _vertices(program.evaluate({"stretchers": 2, "stretcher_height": 0.5}),
+                     label.STRETCHERS)
+    # the default legs (0.43 long, nearly vertical): 0.35 x 0.43 higher
+    assert high[:, 2].mean() - low[:, 2].mean() == pytest.approx(0.35 * 0.43, abs=0.01)
+    assert low[:, 2].min() > 0.03
 
 
 def test_casters_lift_the_tent_legs_off_the_floor(program, label):
