@@ -1,4 +1,4 @@
-"""The chair program (69 parameters: 17 discrete, 52 continuous).
+"""The chair program (70 parameters: 17 discrete, 53 continuous).
 
 Layout: x = width, y = depth (the backrest at +y), z = up; a 0.5 x 0.5 seat before the
 overall scale. Structure (every part touches the rest for every parameter combination):
@@ -19,8 +19,9 @@ overall scale. Structure (every part touches the rest for every parameter combin
 - armrests: from a point sampled on the frame forward, either a straight bar
   (MeshStraightFrame) with an optional support (MeshFrameFixedBottom) down into the seat
   and a pad, or a loop (MeshQuadraticPolarFrame) from the frame down into the seat; and
-  optional side panels (a vertical MeshStraightFrame slab) through the seat's sides, from
-  the floor or the seat up to the arms' back attachment's height;
+  optional side panels (a vertical MeshStraightFrame slab, up to a quarter of the seat
+  thick) through the seat's sides, from the floor or the seat up to the arms' back
+  attachment's height;
 - the chair is scaled per axis and grounded so that its lowest point lies on z = 0.
 Selectors reach the geometry only through Switch / Index Switch nodes, so visibility rules
 are inferred from the graph. In Blender's node editor each piece is a node group: Seat,
@@ -147,6 +148,8 @@ def _parameters(g: Graph) -> dict:
     add("side_panels", "bool", False, 0, 1, "a solid slab along each side up to the arm height")
     add("side_panel_drop", "float", 1.0, 0.0, 1.0,
         "side panels' foot: 0 in the seat, 1 on the floor")
+    add("side_panel_thickness", "float", 0.04, 0.02, 0.125,
+        "thickness of a side panel (0.125: a quarter of the seat, a blocky armchair)")
     return p
 
 
@@ -445,17 +448,20 @@ def _loop_arm(c: _Chair, arm: _Arm):
 
 
 def _side_panel(c: _Chair, arm: _Arm):
-    """When `side_panels`: a slab `armrest_width` thick standing on the seat's side (centred
-    on the corner's x, so half of it is in the slab for every roundness), from the seat's
-    back edge to the arms' front attachment, up to their back attachment's height; its foot
-    goes from inside the slab (`side_panel_drop` 0) down to the floor (1)."""
+    """When `side_panels`: a slab `side_panel_thickness` thick standing on the seat's side
+    (centred on the corner's x, so half of it is in the slab for every roundness: the seat
+    is convex and symmetric, so its outline reaches past the corner's x between the back
+    corner and the front attachment), from the seat's back edge to the arms' front
+    attachment, up to their back attachment's height; its foot goes from inside the slab
+    (`side_panel_drop` 0) down to the floor (1). A thick slab swallows the frame's foot and
+    carries the arm on its top, as the solid sides of an upholstered armchair do."""
     g, p = c.g, c.p
     back_y = c.corner_y
     middle_y = (back_y + arm.front_y) * 0.5
     bottom = c.inside * (1.0 - p["side_panel_drop"])
     panel = straight_frame(g, start=g.vec(c.corner_x, middle_y, bottom),
                            end=g.vec(c.corner_x, middle_y, arm.back.z),
-                           width=back_y - arm.front_y, depth=p["armrest_width"],
+                           width=back_y - arm.front_y, depth=p["side_panel_thickness"],
                            roundness=p["armrest_roundness"], axis=(0.0, 1.0, 0.0),
                            label=SIDE_PANELS)["Mesh"]
     return g.when(p["side_panels"], panel)

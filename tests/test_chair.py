@@ -26,8 +26,8 @@ def _vertices(mesh, *labels) -> np.ndarray:
 def test_parameters_cover_the_chair(program):
     names = {p.name for p in program.parameters}
     kinds = [p.kind for p in program.parameters]
-    assert len(names) == 69
-    assert kinds.count("float") == 52 and len(kinds) - kinds.count("float") == 17
+    assert len(names) == 70
+    assert kinds.count("float") == 53 and len(kinds) - kinds.count("float") == 17
     expected = {
         "scale_x", "scale_y", "scale_z", "seat_height", "seat_roundness", "cushion",
         "cushion_fill", "cross_rail_count", "cross_rail_thickness_y", "cross_rail_thickness_z",
@@ -41,6 +41,7 @@ def test_parameters_cover_the_chair(program):
         "armrest_back_height", "armrest_front_height", "armrest_mid", "armrest_edge",
         "rail_bevel", "sled_base", "sled_joined", "casters", "caster_size",
         "side_panels", "side_panel_drop", "stretchers", "stretcher_height",
+        "side_panel_thickness",
     }
     assert expected <= names, expected - names
     for p in program.parameters:
@@ -59,9 +60,10 @@ def test_visibility_rules_are_inferred_from_the_switches(program):
     assert rules["top_rail_fill"] == "not backrest_solid and top_rail"
     assert rules["armrest_mid"] == "armrest_style == 2"
     assert rules["armrest_support"] == "armrest_style == 1"
-    assert rules["armrest_width"] == "armrest_style == 1 or armrest_style == 2 or side_panels"
+    assert rules["armrest_width"] == "armrest_style == 1 or armrest_style == 2"
     assert rules["side_panels"] is None
     assert rules["side_panel_drop"] == "side_panels"
+    assert rules["side_panel_thickness"] == "side_panels"
     assert rules["sled_joined"] == "not monoleg and sled_base"
     assert rules["stretchers"] == "not monoleg"
     assert rules["stretcher_height"] == ("not monoleg and stretchers == 1 "
@@ -78,7 +80,8 @@ def test_visibility_rules_are_inferred_from_the_switches(program):
     ({"vertical_rails": 1}, {"cross_rail_thickness_z": 0.08}),
     ({"monoleg": 1}, {"sled_base": 1, "sled_joined": 1}),
     ({"monoleg": 1, "tent_legs": 0}, {"casters": 1, "caster_size": 0.04}),
-    ({"side_panels": 0}, {"side_panel_drop": 0.0}),
+    ({"side_panels": 0}, {"side_panel_drop": 0.0, "side_panel_thickness": 0.125}),
+    ({"side_panels": 1}, {"armrest_width": 0.07}),
     ({"monoleg": 1}, {"stretchers": 2}),
     ({"stretchers": 0}, {"stretcher_height": 0.5}),
 ])
@@ -329,6 +332,34 @@ def test_side_panels_reach_from_the_seat_down_to_the_floor(program, label, round
     assert 0.45 - 0.06 < seated[:, 2].min() < 0.45
     for mesh in (floor, program.evaluate({**arms, "side_panel_drop": 0.0})):
         assert loose_parts(part_mesh(mesh, label.SEAT, label.SIDE_PANELS)) == 0
+
+
+@pytest.mark.parametrize("arms", [
+    {"armrest_style": 0},
+    {"armrest_style": 1, "armrest_support": 0, "armrest_width": 0.07},
+    {"armrest_style": 2, "armrest_mid": 0.6},
+])
+@pytest.mark.parametrize("shape", [
+    {"seat_roundness": 1.0, "back_frame_offset": 0.0, "backrest_solid": 1,
+     "side_panel_drop": 0.0, "armrest_back_height": 0.35},
+    {"seat_roundness": 0.0, "back_frame_offset": 0.5, "backrest_slant": 0.35,
+     "side_panel_drop": 1.0, "armrest_back_height": 0.8, "armrest_edge": 0.6},
+])
+def test_thick_side_panels_are_blocky_armchair_sides(program, label, arms, shape):
+    values = {**shape, **arms, "side_panels": 1, "seat_height": 0.45}
+    thin = program.evaluate({**values, "side_panel_thickness": 0.02})
+    thick = program.evaluate({**values, "side_panel_thickness": 0.125})
+    for mesh, thickness in ((thin, 0.02), (thick, 0.125)):
+        panels = _vertices(mesh, label.SIDE_PANELS)
+        right = panels[panels[:, 0] > 0]
+        # a slab that thick, centred on the seat's corner (inside the seat's half-width)
+        assert np.ptp(right[:, 0]) == pytest.approx(thickness, abs=1e-3)
+        assert right[:, 0].min() < 0.25 - thickness * 0.5 + 1e-3
+        assert loose_parts(mesh) == 0
+        assert loose_parts(part_mesh(mesh, label.SEAT, label.SIDE_PANELS)) == 0
+    # the sides reach further out and further in, leaving less of the seat between them
+    outer = lambda m: np.ptp(_vertices(m, label.SIDE_PANELS)[:, 0])  # noqa: E731
+    assert outer(thick) == pytest.approx(outer(thin) + 0.105, abs=1e-3)
 
 
 def test_overall_scale_scales_each_axis(program):
