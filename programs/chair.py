@@ -1,4 +1,4 @@
-"""The chair program (70 parameters: 17 discrete, 53 continuous).
+"""The chair program (72 parameters: 18 discrete, 54 continuous).
 
 Layout: x = width, y = depth (the backrest at +y), z = up; a 0.5 x 0.5 seat before the
 overall scale. Structure (every part touches the rest for every parameter combination):
@@ -8,14 +8,16 @@ overall scale. Structure (every part touches the rest for every parameter combin
 - cushion: MeshCushion sunk a little into the seat's top;
 - legs: four MeshLegs from under the seat corners to z = 0, optionally on a sled base
   (a MeshStraightFrame runner on the floor through each side's feet, the two optionally
-  joined at the back by a tube across), optionally joined by stretchers (MeshStraightFrame
-  bars, a box or an H, their ends sampled on the legs' own axes), or a monoleg (a column with StyleBezierSegment: a
-  pedestal, or a slimmer column on tent legs: radial MeshQuadraticCartesian, optionally
-  on caster wheels, MeshStraightFrame);
+  joined at the back by a tube across) and optionally joined by stretchers
+  (MeshStraightFrame bars, a box or an H, their ends sampled on the legs' own axes), or a
+  monoleg (a column with StyleBezierSegment: a pedestal, or a slimmer column on tent legs:
+  radial MeshQuadraticCartesian, optionally on caster wheels, MeshStraightFrame);
 - backrest: two frames (MeshQuadraticCartesianAlignedXYFrame, mirrored in x) rising from
   the seat's back corners; cross rails (MeshCrossRail on SampleCurveArray points of the
   frame), vertical rails (the frame's path repeated across) or a solid panel (the frame's
   path swept with a panel profile) span the two frames; a MeshTopRail caps them;
+  optionally the back is lifted off the seat onto a central post (MeshStraightFrame post
+  and a yoke across the frames' feet: an office chair);
 - armrests: from a point sampled on the frame forward, either a straight bar
   (MeshStraightFrame) with an optional support (MeshFrameFixedBottom) down into the seat
   and a pad, or a loop (MeshQuadraticPolarFrame) from the frame down into the seat; and
@@ -25,7 +27,7 @@ overall scale. Structure (every part touches the rest for every parameter combin
 - the chair is scaled per axis and grounded so that its lowest point lies on z = 0.
 Selectors reach the geometry only through Switch / Index Switch nodes, so visibility rules
 are inferred from the graph. In Blender's node editor each piece is a node group: Seat,
-Back Frame, Cushion, Legs, Monoleg, Backrest, Armrests.
+Back Frame, Cushion, Legs, Monoleg, Backrest, Back Post, Armrests.
 """
 
 from __future__ import annotations
@@ -56,7 +58,7 @@ from geocode.nodes import (
 # labels (segmentation)
 (SEAT, CUSHION, LEGS, BACK_FRAME, CROSS_RAILS, VERTICAL_RAILS, TOP_RAIL, BACK_PANEL,
  ARMRESTS, ARM_SUPPORTS, ARM_PADS, MONOLEG, TENT_LEGS, CASTERS, SIDE_PANELS,
- STRETCHERS) = range(1, 17)
+ STRETCHERS, BACK_POST) = range(1, 18)
 
 SEAT_SIZE = 0.5          # width and depth of the seat before the overall scale
 LEG_INSET = 1.2          # legs sit this many radii inside the seat's corner
@@ -66,6 +68,7 @@ TENT_COLUMN = 0.35       # a column on tent legs: this share of a pedestal's pro
 CASTER_LIFT = 1.8        # tent legs' ends above the floor, in caster radii (sunk in the wheel)
 CASTER_WIDTH = 0.8       # width of a caster wheel, in radii
 STRETCHER_SHARE = 0.8    # a stretcher's width, in leg thicknesses (a leg is 2 wide, tapered 1)
+POST_WIDTH = 2.0         # the back post's width and its yoke's height, in frame widths
 PAD_SINK = 0.3           # share of an armrest pad sunk into its armrest
 ARM_LOOP_BULGE = 0.35    # bulge of a loop armrest, as a share of its chord
 
@@ -95,7 +98,7 @@ def _parameters(g: Graph) -> dict:
     add("sled_base", "bool", False, 0, 1, "a runner on the floor joining each side's feet")
     add("sled_joined", "bool", False, 0, 1, "a tube across joining the runners at the back")
     add("stretchers", "int", 0, 0, 2, "bars between the legs: 0 none, 1 a box, 2 an H")
-    add("stretcher_height", "float", 0.3, 0.15, 0.5, "stretchers' place (share of the leg from the foot)")
+    add("stretcher_height", "float", 0.3, 0.15, 0.5, "stretchers' height (share of the legs)")
     add("monoleg_top_radius", "float", 0.06, 0.03, 0.12, "monoleg Bezier profile: top")
     add("monoleg_top_handle", "float", 0.06, 0.03, 0.12, "monoleg Bezier profile: upper handle")
     add("monoleg_bottom_handle", "float", 0.1, 0.05, 0.2, "monoleg Bezier profile: lower handle")
@@ -115,6 +118,8 @@ def _parameters(g: Graph) -> dict:
     add("frame_depth", "float", 0.04, 0.02, 0.06, "depth of the backrest frames")
     add("frame_roundness", "float", 0.0, 0.0, 1.0, "frame profile: 0 square, 1 round")
     add("rail_bevel", "float", 0.0, 0.0, 0.6, "bevel of the frames' top ends")
+    add("back_post", "bool", False, 0, 1, "the backrest lifted off the seat on one central post")
+    add("back_post_gap", "float", 0.1, 0.05, 0.2, "backrest's foot above the seat's top")
     # backrest filling
     add("backrest_solid", "bool", False, 0, 1, "a solid panel instead of rails")
     add("solid_thickness", "float", 0.025, 0.015, 0.04, "thickness of the solid panel")
@@ -170,6 +175,10 @@ class _Chair:
         # x of the right frame's axis: inside the seat corner, moved in by the offset
         x = self.corner_x - p["frame_width"] * 0.5
         self.frame_x = g.named("frame x", x * (1.0 - p["back_frame_offset"]))
+        # y of the frames' axis, and their foot's lift above `inside` (on a back post)
+        self.frame_y = g.named("frame y", self.corner_y - p["frame_depth"] * 0.5)
+        gap = p["back_post_gap"] + p["seat_thickness"] * SINK   # from `inside`
+        self.lift = g.named("back lift", g.when(p["back_post"], gap, 0.0))
 
     # -- backrest frame -------------------------------------------------------------------
 
@@ -182,13 +191,13 @@ class _Chair:
         return self.g.lerp(start, 1.0, share)
 
     def build_frame(self):
-        """The right back frame: from inside the seat's back corner (moved in by `frame_x`)
-        up by `backrest_height` (+ the sunk share of the slab), leaning back by
-        `backrest_slant` x rise and bowed back by `backrest_curvature` x rise / 4."""
+        """The right back frame: from inside the seat's back corner (moved in by `frame_x`;
+        with `back_post`, from `back_post_gap` above the seat's top instead) up by
+        `backrest_height` (+ the sunk share of the slab), leaning back by `backrest_slant`
+        x rise and bowed back by `backrest_curvature` x rise / 4."""
         g, p = self.g, self.p
-        y = self.corner_y - p["frame_depth"] * 0.5
         rise = p["backrest_height"] + p["seat_thickness"] * SINK
-        bottom = g.vec(self.frame_x, y, self.inside)
+        bottom = g.vec(self.frame_x, self.frame_y, self.inside + self.lift)
         top = bottom + g.vec(0.0, p["backrest_slant"] * rise, rise)
         bow = g.vec(0.0, p["backrest_curvature"] * (rise * 0.25), 0.0)
         frame = quadratic_cartesian_aligned_xy_frame(
@@ -388,6 +397,25 @@ def _backrest(c: _Chair):
     return g.when(p["backrest_solid"], panel, open_back)
 
 
+def _back_post(c: _Chair):
+    """When `back_post` (an office chair's back): a yoke across the frames' lifted feet (its
+    middle at their foot's height, so they end inside it) and one post in the middle from
+    inside the seat slab up to the yoke's middle; both on the frames' axis in y (inside the
+    seat for every roundness: the seat reaches furthest back at x = 0), `POST_WIDTH` frame
+    widths wide or tall. Built whole, not mirrored."""
+    g, p = c.g, c.p
+    size = p["frame_width"] * POST_WIDTH
+    foot = c.inside + c.lift
+    yoke = straight_frame(g, start=g.vec(-c.frame_x, c.frame_y, foot),
+                          end=g.vec(c.frame_x, c.frame_y, foot), width=p["frame_depth"],
+                          depth=size, roundness=p["frame_roundness"], axis=(0.0, 1.0, 0.0),
+                          label=BACK_POST)["Mesh"]
+    post = straight_frame(g, start=g.vec(0.0, c.frame_y, c.inside),
+                          end=g.vec(0.0, c.frame_y, foot), width=size, depth=p["frame_depth"],
+                          roundness=p["frame_roundness"], label=BACK_POST)["Mesh"]
+    return g.when(p["back_post"], g.join([yoke, post]))
+
+
 # -- armrests -------------------------------------------------------------------------------
 
 class _Arm:
@@ -493,12 +521,14 @@ def build(g: Graph) -> None:
         monoleg = _monoleg(c)
     with g.group("Backrest"):
         backrest = _backrest(c)
+    with g.group("Back Post"):
+        post = _back_post(c)
     with g.group("Armrests"):
         armrests = _armrests(c)
     with g.frame("Assembly"):
         # the right side is mirrored in x; the chair is scaled per axis and then rests on z = 0
         right = g.join([legs, c.frame, armrests])
         chair = g.join([c.seat["Mesh"], pillow, mirror(g, geometry=right, axis=0)["Geometry"],
-                        monoleg, backrest])
+                        monoleg, backrest, post])
         scaled = g.transform(chair, scale=g.vec(p["scale_x"], p["scale_y"], p["scale_z"]))
         g.output("Geometry", "geometry", g.ground(scaled))

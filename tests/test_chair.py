@@ -26,8 +26,8 @@ def _vertices(mesh, *labels) -> np.ndarray:
 def test_parameters_cover_the_chair(program):
     names = {p.name for p in program.parameters}
     kinds = [p.kind for p in program.parameters]
-    assert len(names) == 70
-    assert kinds.count("float") == 53 and len(kinds) - kinds.count("float") == 17
+    assert len(names) == 72
+    assert kinds.count("float") == 54 and len(kinds) - kinds.count("float") == 18
     expected = {
         "scale_x", "scale_y", "scale_z", "seat_height", "seat_roundness", "cushion",
         "cushion_fill", "cross_rail_count", "cross_rail_thickness_y", "cross_rail_thickness_z",
@@ -41,7 +41,7 @@ def test_parameters_cover_the_chair(program):
         "armrest_back_height", "armrest_front_height", "armrest_mid", "armrest_edge",
         "rail_bevel", "sled_base", "sled_joined", "casters", "caster_size",
         "side_panels", "side_panel_drop", "stretchers", "stretcher_height",
-        "side_panel_thickness",
+        "side_panel_thickness", "back_post", "back_post_gap",
     }
     assert expected <= names, expected - names
     for p in program.parameters:
@@ -64,6 +64,7 @@ def test_visibility_rules_are_inferred_from_the_switches(program):
     assert rules["side_panels"] is None
     assert rules["side_panel_drop"] == "side_panels"
     assert rules["side_panel_thickness"] == "side_panels"
+    assert rules["back_post"] is None and rules["back_post_gap"] == "back_post"
     assert rules["sled_joined"] == "not monoleg and sled_base"
     assert rules["stretchers"] == "not monoleg"
     assert rules["stretcher_height"] == ("not monoleg and stretchers == 1 "
@@ -82,6 +83,7 @@ def test_visibility_rules_are_inferred_from_the_switches(program):
     ({"monoleg": 1, "tent_legs": 0}, {"casters": 1, "caster_size": 0.04}),
     ({"side_panels": 0}, {"side_panel_drop": 0.0, "side_panel_thickness": 0.125}),
     ({"side_panels": 1}, {"armrest_width": 0.07}),
+    ({"back_post": 0}, {"back_post_gap": 0.2}),
     ({"monoleg": 1}, {"stretchers": 2}),
     ({"stretchers": 0}, {"stretcher_height": 0.5}),
 ])
@@ -113,6 +115,9 @@ def test_every_part_carries_its_own_label(program, label):
     solid = program.evaluate({"backrest_solid": 1, "armrest_style": 2})
     assert set(solid.metadata["part"]) == {label.SEAT, label.LEGS, label.BACK_FRAME,
                                            label.BACK_PANEL, label.ARMRESTS}
+    office_back = program.evaluate({"back_post": 1, "backrest_solid": 1})
+    assert set(office_back.metadata["part"]) == {label.SEAT, label.LEGS, label.BACK_FRAME,
+                                                 label.BACK_PANEL, label.BACK_POST}
     braced = program.evaluate({"stretchers": 1, "sled_base": 1})
     assert set(braced.metadata["part"]) == {label.SEAT, label.LEGS, label.BACK_FRAME,
                                             label.CROSS_RAILS, label.TOP_RAIL,
@@ -173,6 +178,39 @@ def test_rails_span_the_backrest_frame_at_any_curvature_and_slant(program, label
         assert frame[:, 2].min() - 1e-6 <= rail[:, 2].min()
         assert rail[:, 2].max() <= frame[:, 2].max() + 0.05
         assert loose_parts(part_mesh(mesh, label.SEAT, label.BACK_FRAME, part)) == 0
+
+
+@pytest.mark.parametrize("back", [
+    {"backrest_solid": 1, "seat_roundness": 1.0, "back_frame_offset": 0.5,
+     "backrest_slant": 0.35, "backrest_curvature": 0.5, "frame_width": 0.06},
+    {"backrest_solid": 0, "vertical_rails": 1, "top_rail": 0, "seat_roundness": 0.0,
+     "backrest_slant": -0.05, "backrest_curvature": -0.5, "frame_width": 0.02,
+     "frame_depth": 0.02, "armrest_style": 2},
+    {"backrest_solid": 0, "cross_rail_count": 1, "top_rail": 0, "armrest_style": 1,
+     "armrest_support": 0, "cushion": 1, "seat_thickness": 0.1, "frame_roundness": 1.0,
+     "frame_width": 0.04},
+])
+def test_a_back_post_lifts_the_backrest_off_the_seat(program, label, back):
+    values = {**back, "seat_height": 0.45}
+    low = program.evaluate({**values, "back_post": 1, "back_post_gap": 0.05})
+    high = program.evaluate({**values, "back_post": 1, "back_post_gap": 0.2})
+    plain = program.evaluate({**values, "back_post": 0})
+    frame = lambda m: _vertices(m, label.BACK_FRAME)  # noqa: E731
+    # the frames start `back_post_gap` above the seat's top instead of inside the slab
+    for mesh, gap in ((low, 0.05), (high, 0.2)):
+        assert frame(mesh)[:, 2].min() == pytest.approx(0.45 + gap, abs=0.01)
+        assert loose_parts(mesh) == 0
+        # held by the post alone: the back, the post and the seat are one piece
+        assert loose_parts(part_mesh(mesh, label.SEAT, label.BACK_FRAME, label.BACK_POST)) == 0
+        post = _vertices(mesh, label.BACK_POST)
+        assert post[:, 2].min() < 0.45
+        # one post in the middle: below the yoke (two frame widths tall, centred on the
+        # frames' feet), nothing of it is off the centre
+        width = back["frame_width"]
+        under = post[post[:, 2] < frame(mesh)[:, 2].min() - width - 1e-3]
+        assert len(under) and np.abs(under[:, 0]).max() <= width + 1e-6
+    assert frame(plain)[:, 2].min() < 0.45
+    assert frame(high)[:, 2].max() - frame(low)[:, 2].max() == pytest.approx(0.15, abs=1e-3)
 
 
 @pytest.mark.parametrize("arm", [
