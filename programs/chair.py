@@ -69,6 +69,7 @@ CASTER_LIFT = 1.8        # tent legs' ends above the floor, in caster radii (sun
 CASTER_WIDTH = 0.8       # width of a caster wheel, in radii
 STRETCHER_SHARE = 0.8    # a stretcher's width, in leg thicknesses (a leg is 2 wide, tapered 1)
 POST_WIDTH = 2.0         # the back post's width and its yoke's height, in frame widths
+POST_DEPTH = 0.8         # the post's depth, in frame depths (within the yoke's faces)
 PAD_SINK = 0.3           # share of an armrest pad sunk into its armrest
 ARM_LOOP_BULGE = 0.35    # bulge of a loop armrest, as a share of its chord
 
@@ -402,7 +403,8 @@ def _back_post(c: _Chair):
     middle at their foot's height, so they end inside it) and one post in the middle from
     inside the seat slab up to the yoke's middle; both on the frames' axis in y (inside the
     seat for every roundness: the seat reaches furthest back at x = 0), `POST_WIDTH` frame
-    widths wide or tall. Built whole, not mirrored."""
+    widths wide or tall; the post a little shallower than the yoke, so that no faces of
+    the two coincide. Built whole, not mirrored."""
     g, p = c.g, c.p
     size = p["frame_width"] * POST_WIDTH
     foot = c.inside + c.lift
@@ -411,7 +413,8 @@ def _back_post(c: _Chair):
                           depth=size, roundness=p["frame_roundness"], axis=(0.0, 1.0, 0.0),
                           label=BACK_POST)["Mesh"]
     post = straight_frame(g, start=g.vec(0.0, c.frame_y, c.inside),
-                          end=g.vec(0.0, c.frame_y, foot), width=size, depth=p["frame_depth"],
+                          end=g.vec(0.0, c.frame_y, foot), width=size,
+                          depth=p["frame_depth"] * POST_DEPTH,
                           roundness=p["frame_roundness"], label=BACK_POST)["Mesh"]
     return g.when(p["back_post"], g.join([yoke, post]))
 
