@@ -14,6 +14,7 @@ import yaml
 from geocode import meshio
 from geocode.blender import export
 from geocode.recipe import save_recipes
+from geocode.steps.dataset import save_split_recipes
 
 
 class Param:
@@ -94,6 +95,26 @@ def test_export_shard_with_a_double(tmp_path):
     export.export_shard(tmp_path, 0, "tower", program=TowerDouble(), recipe=RecipeDouble())
     assert keep.stat().st_mtime_ns == stamp
     assert export.is_complete(shapes, "train-000004")
+
+
+def test_a_changed_program_or_recipe_clears_the_split(tmp_path):
+    """The shard jobs keep what they find finished, so new recipes or another version of the
+    program (its key) must clear the shapes, drawings, clouds and done-files made before."""
+    frame = _recipes(tmp_path, [{"height": 0.5 + 0.3 * i, "legs": 1.0} for i in range(3)])
+    save_split_recipes(tmp_path, frame, "key-a")
+    export.export_shard(tmp_path, 0, "tower", program=TowerDouble(), recipe=RecipeDouble())
+    (tmp_path / "sketches").mkdir()
+    kept = tmp_path / "shapes" / "train-000000.obj"
+
+    save_split_recipes(tmp_path, frame, "key-a")            # the same: everything kept
+    assert kept.exists() and (tmp_path / "sketches").exists()
+    save_split_recipes(tmp_path, frame, "key-b")            # another program
+    assert not any((tmp_path / name).exists() for name in ("shapes", "sketches", "done"))
+    assert (tmp_path / "program.txt").read_text().strip() == "key-b"
+
+    export.export_shard(tmp_path, 0, "tower", program=TowerDouble(), recipe=RecipeDouble())
+    save_split_recipes(tmp_path, frame.assign(legs=2.0), "key-b")   # other recipes
+    assert not kept.exists()
 
 
 def test_export_is_deterministic(tmp_path):

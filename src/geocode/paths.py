@@ -21,6 +21,8 @@ back as it was: a Snakemake wildcard.
 
 from __future__ import annotations
 
+import hashlib
+import json
 import os
 from pathlib import Path
 
@@ -63,6 +65,13 @@ def blend_path(cfg, domain: str) -> Path:
 def manifest_path(cfg, domain: str) -> Path:
     """The manifest that `geocode program build` writes for `domain` under the build folder."""
     return Path(cfg.paths.build) / "programs" / f"{domain}.manifest.json"
+
+
+def program_key(cfg, domain: str) -> str:
+    """The key of `domain`'s program: a hash of its manifest (parameters, visibility rules
+    and the fingerprint of its geometry), so that a changed program has another key."""
+    manifest = json.loads(manifest_path(cfg, domain).read_text())
+    return hashlib.sha1(json.dumps(manifest, sort_keys=True).encode()).hexdigest()[:10]
 
 
 # -- datasets -----------------------------------------------------------------------------------
@@ -132,6 +141,14 @@ def cloud_file(split_folder: Path, shape_id: str) -> Path:
 def done_file(split_folder: Path, stage: str, shard: int | str) -> Path:
     """The ids a shard of a stage finished (export, sketch, points), written last."""
     return Path(split_folder) / "done" / f"{stage}-{shard}.txt"
+
+
+def program_stamp(split_folder: Path) -> Path:
+    """The `program_key` of the program that a split's shapes were made with."""
+    return Path(split_folder) / "program.txt"
+
+
+DERIVED = ("shapes", "sketches", "points", "done")   # a split's folders made from its recipes
 
 
 # -- runs -------------------------------------------------------------------------------------

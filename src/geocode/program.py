@@ -158,7 +158,7 @@ class Program:
     def manifest(self) -> dict:
         """What the steps without Blender know of the program: its parameters, their visibility
         rules, whether it hangs, and the fingerprint of its geometry (a changed program has
-        another manifest, so training starts afresh: `geocode.steps.train.program_key`)."""
+        another manifest, so training starts afresh: `geocode.paths.program_key`)."""
         rules = self.visibility()
         return {"domain": self.domain, "hangs": self.hangs, "geometry": self.fingerprint(), "parameters": [
             {"name": p.name, "kind": p.kind, "min": p.min, "max": p.max, "default": p.default,

@@ -26,8 +26,10 @@ from __future__ import annotations
 
 import hashlib
 import logging
+import shutil
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -35,7 +37,8 @@ from omegaconf import DictConfig
 
 from geocode import paths
 from geocode.config import split_variations
-from geocode.recipe import Recipe, load_recipe, save_recipes
+from geocode.meshio import write_text
+from geocode.recipe import Recipe, load_recipe, load_recipes, save_recipes
 from geocode.seeds import key_word
 
 log = logging.getLogger("geocode.sample")
@@ -310,11 +313,26 @@ def sample_step(cfg: DictConfig) -> str:
     for split in paths.SPLITS:
         frame = spread_subset(splits[split], cfg.data.max_shapes[split])
         frame = assign_shards(frame, cfg.data.shards)
-        save_recipes(frame, paths.recipes_file(paths.split_dir(cfg, domain, split)))
+        save_split_recipes(paths.split_dir(cfg, domain, split), frame, paths.program_key(cfg, domain))
         counts.append(f"{split} {len(frame)}")
     summary = f"{domain}: " + ", ".join(counts) + " shapes"
     log.info(summary)
     return summary
+
+
+def save_split_recipes(split_dir: Path, frame: pd.DataFrame, program: str) -> None:
+    """Write a split's recipes and the key of the program they are for (`paths.program_stamp`).
+    The shard jobs keep the shapes, drawings and clouds they find finished, so where the
+    split's are from other recipes or another version of the program (its stamp), they are
+    deleted first: a changed program is exported, drawn and sampled afresh."""
+    recipes, stamp = paths.recipes_file(split_dir), paths.program_stamp(split_dir)
+    same_program = not stamp.exists() or stamp.read_text().strip() == program
+    same_recipes = recipes.exists() and load_recipes(recipes).equals(frame.reset_index(drop=True))
+    if not (same_program and same_recipes):
+        for name in paths.DERIVED:
+            shutil.rmtree(split_dir / name, ignore_errors=True)
+    save_recipes(frame, recipes)
+    write_text(stamp, program + "\n")
 
 
 def export_step(cfg: DictConfig, split: str, shard: int) -> None:

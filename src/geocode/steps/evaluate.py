@@ -32,9 +32,9 @@ from geocode.meshio import (
     write_parquet,
     write_text,
 )
-from geocode.recipe import load_recipes, save_recipes
+from geocode.recipe import load_recipes
 from geocode.seeds import generator
-from geocode.steps.dataset import spread_subset
+from geocode.steps.dataset import save_split_recipes, spread_subset
 
 log = logging.getLogger("geocode.steps.evaluate")
 
@@ -65,7 +65,7 @@ def simplify_step(cfg: DictConfig, domain: str, factor: int) -> str:
     src = paths.split_dir(cfg, domain, "test")
     recipes = load_recipes(paths.recipes_file(src))
     recipes = recipes[recipes["id"].isin(test_ids(cfg, domain))]
-    save_recipes(recipes, paths.recipes_file(dst))
+    save_split_recipes(dst, recipes, paths.program_key(cfg, domain))
     faces_before = faces_after = 0
     for shard in range(cfg.data.shards):
         rows = recipes[recipes["shard"] == shard]

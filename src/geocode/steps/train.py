@@ -6,7 +6,6 @@
 
 from __future__ import annotations
 
-import hashlib
 import json
 import logging
 import sys
@@ -137,7 +136,7 @@ def train(cfg: DictConfig, out_dir: str | Path | None = None) -> dict:
     ckpt_dir = paths.checkpoint_dir(out)
     pl.seed_everything(int(cfg.seed), workers=True)
     recipe = load_recipe(cfg)
-    program, key = program_key(cfg), training_key(cfg)
+    program, key = paths.program_key(cfg, cfg.domain.name), training_key(cfg)
     model = build_model(cfg, recipe)
     data = build_datamodule(cfg, recipe, model.modalities)   # huang reads no clouds
     data.setup("fit")  # read (and check) the data before the run folder is made; kept for fit
@@ -222,13 +221,6 @@ def majority_per_parameter(cfg: DictConfig, recipe) -> dict[str, float]:
 
 
 # ---------------------------------------------------------------- checkpoints
-
-
-def program_key(cfg: DictConfig) -> str:
-    """The key of the domain's program: a hash of its manifest (parameters, visibility rules
-    and the fingerprint of its geometry), so that a changed program has another key."""
-    manifest = json.loads(paths.manifest_path(cfg, cfg.domain.name).read_text())
-    return hashlib.sha1(json.dumps(manifest, sort_keys=True).encode()).hexdigest()[:10]
 
 
 def set_aside_if_stale(out: Path, program: str, settings: str) -> None:

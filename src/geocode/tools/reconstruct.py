@@ -35,6 +35,7 @@ from scipy import ndimage
 from geocode import pose as poses
 from geocode.errors import UserError
 from geocode.fit import (
+    RESTARTS,
     CloudDistance,
     FitResult,
     Pose,
@@ -232,7 +233,7 @@ class Reconstructor:
         if self.refine > 0:   # the fit
             starts = answers[i] + self.nearest_starts(frame, answers[i]) + feedback
             result.fit = fit(self.program, self.recipe, starts, frame.samples[:TARGET_POINTS],
-                             self.refine, seed=self.cfg.seed, restarts=max(2, self.candidates),
+                             self.refine, seed=self.cfg.seed, restarts=max(RESTARTS, self.candidates),
                              helpers=self.helpers)
             fitted = [Answer(v, w, self.score(frame, v, w)) for v, w in result.fit.found]
             result.answers = distinct_answers([*fitted, network], self.candidates)
