@@ -1,5 +1,6 @@
 # Recipes -> shapes (OBJ + YAML + part labels) -> sketches and point clouds, one job per shard.
-# Each shard job skips the shapes it finished before and writes its done-file last.
+# Each shard job skips the shapes it finished before and writes its done-file last; rule sample
+# first clears a split made from other recipes or by another version of the program.
 
 
 rule sample:
