@@ -4,8 +4,10 @@ No network: for each mesh of the folder, a long fit (`geocode.fit`, default SPAN
 evaluations) from the program's defaults: first at the four quarter-turns about the up axis,
 then, at the best of them, also from the defaults with one discrete parameter switched to each
 of its other values (a sled base, side panels, an open row: a form one switch away is a start
-of its own, not a long step of the search), every discrete parameter searched over all its
-values, CMA-ES restarted from the best starts; the pose (up axis, then turn, scale and
+of its own, not a long step of the search) and from POOL random shapes of the program's own
+sampler (an office chair is three switches from the defaults: a column, tent legs, a back on
+a post), every discrete parameter searched over all its values, CMA-ES restarted from the best
+starts; the pose (up axis, then turn, scale and
 offset) found as `geocode reconstruct` finds it. What
 distance remains (plain symmetric Chamfer, as `geocode bench real` scores it) is the part of
 the real shapes the program cannot make. Writes a page of each mesh beside the best shape.
@@ -25,6 +27,7 @@ from geocode.fit import Start, fit
 
 SPAN_BUDGET = 2000
 RESTARTS = 4
+POOL = 200   # random shapes of the program, each a start (one evaluation)
 
 
 def all_options(recipe) -> dict[str, list[float]]:
@@ -47,13 +50,16 @@ def switch_starts(defaults: dict[str, float], options: dict[str, list[float]], t
 
 def span_fit(program, recipe, target: np.ndarray, budget: int, seed: int):
     """The fit from the defaults at the four quarter-turns (one evaluation each), then from
-    those and the one-switch starts at the best turn: `budget` evaluations in all (at least 5)."""
+    those, the one-switch starts and POOL random shapes at the best turn: `budget` evaluations
+    in all (at least 5)."""
     defaults, options = program.check({}), all_options(recipe)
     turns = [start_at(defaults, options, k * math.pi / 2) for k in range(4)]
     first = fit(program, recipe, turns, target, len(turns), seed=seed, restarts=0)
     best = turns[first.start].turn
+    rng = np.random.default_rng(seed)
+    pool = [start_at(program.random_values(rng), options, best) for _ in range(POOL)]
     starts = [turns[first.start], *switch_starts(defaults, options, best),
-              *(t for t in turns if t.turn != best)]
+              *(t for t in turns if t.turn != best), *pool]
     # a budget under the number of starts scores the first ones only (`fit`)
     result = fit(program, recipe, starts, target, max(1, budget - len(turns)), seed=seed,
                  restarts=RESTARTS)
