@@ -7,7 +7,7 @@ import pytest
 pytest.importorskip("bpy")
 
 from geocode.program import part_mesh  # noqa: E402
-from geocode.stability import _winding_number, drop_test, loose_parts  # noqa: E402
+from geocode.stability import drop_test, loose_parts, winding_number  # noqa: E402
 
 pytestmark = pytest.mark.blender
 
@@ -304,7 +304,7 @@ def test_stretchers_end_inside_the_legs_at_any_splay_and_curvature(program, labe
             ends = ends[np.abs(ends[:, 0]) > np.abs(bars[:, 0]).max() - size]
         assert len(ends) >= 8
         legs_mesh = part_mesh(mesh, label.LEGS)
-        inside = np.abs(_winding_number(ends, legs_mesh.triangles))
+        inside = np.abs(winding_number(ends, legs_mesh.triangles))
         assert (inside > 0.5).all(), style
     # a box joins all four legs at the front and the back; an H crosses between the sides
     box = _vertices(program.evaluate({**legs, "stretchers": 1}), label.STRETCHERS)

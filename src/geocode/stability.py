@@ -67,7 +67,7 @@ def _segments_cross(s0: np.ndarray, s1: np.ndarray, tri: np.ndarray) -> np.ndarr
     return ok & (u >= 0) & (v >= 0) & (u + v <= 1) & (t >= 0) & (t <= 1)
 
 
-def _winding_number(points: np.ndarray, tri: np.ndarray) -> np.ndarray:
+def winding_number(points: np.ndarray, tri: np.ndarray) -> np.ndarray:
     """Generalised winding numbers (k,) of a closed triangle soup about points (k,3).
 
     w = sum of solid angles / 4 pi, with the solid angle of one triangle (van Oosterom and
@@ -237,7 +237,7 @@ def _inside(local: _Local) -> bool:
         return False
     centre = (q.lo + q.hi) / 2
     x = pts[np.argmin(((pts - centre) ** 2).sum(1))]
-    return bool(abs(_winding_number(x[None], q.tri)[0]) > 0.5)
+    return bool(abs(winding_number(x[None], q.tri)[0]) > 0.5)
 
 
 def _near(local: _Local) -> bool:
