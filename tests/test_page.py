@@ -141,6 +141,17 @@ def test_header_medians_leave_failed_inputs_out(tmp_path):
     assert "median 15.0 s per input" in text
 
 
+def test_header_keeps_drawings_px_apart_from_shapes_distances(tmp_path):
+    user_png = tmp_path / "in.png"
+    Image.new("L", (40, 20), 255).save(user_png)
+    drawing = Entry("d/doodle.png", "drawing", input=user_png, result=box(), before=6.0, after=4.5,
+                    seconds=5.0, unit=" px")
+    write_page([*entries(), drawing], tmp_path / "out", "t", render=FakeRender())
+    lead = (tmp_path / "out" / "index.html").read_text().split("class='lead'>")[1].split("</p>")[0]
+    assert "median distance of the shapes network 0.015 &rarr; after fit <b>0.0045</b>" in lead
+    assert "median distance of the drawings network 6 px &rarr; after fit <b>4.5</b> px" in lead
+
+
 def test_failed_input_gets_its_message_and_no_pictures(tmp_path):
     write_page(entries(), tmp_path, "t", render=FakeRender())
     card = (tmp_path / "index.html").read_text().split("id='input-2'")[1].split("</section>")[0]

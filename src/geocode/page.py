@@ -276,11 +276,14 @@ def header_html(entries: Sequence[Entry]) -> str:
     failed = len(entries) - len(done)
     parts = [f"{len(entries)} input{'s' * (len(entries) != 1)}"
              + (f", <span class='worse'>{failed} failed</span>" if failed else "")]
-    fitted = [e for e in done if e.before is not None and e.after is not None]
-    before, after = median(e.before for e in fitted or done), median(e.after for e in fitted)
-    if before is not None or after is not None:
-        parts.append("median distance " + _before_after(before, after)
-                     + (f" (over the {len(fitted)} fitted)" if 0 < len(fitted) < len(done) else ""))
+    for unit in dict.fromkeys(e.unit for e in done):   # drawings' px apart from Chamfer distances
+        alike = [e for e in done if e.unit == unit]
+        fitted = [e for e in alike if e.before is not None and e.after is not None]
+        before, after = median(e.before for e in fitted or alike), median(e.after for e in fitted)
+        if before is not None or after is not None:
+            what = "drawings" if unit else "shapes" if len(alike) < len(done) else ""
+            parts.append(f"median distance{' of the ' + what if what else ''} " + _before_after(before, after, unit)
+                         + (f" (over the {len(fitted)} fitted)" if 0 < len(fitted) < len(alike) else ""))
     seconds = median(e.seconds for e in done)
     if seconds is not None:
         parts.append(f"median {seconds:.1f} s per input")
