@@ -22,8 +22,10 @@ LIMITS = [
     "It was trained on synthetic shapes in the program's own frame: a real input needs the pose "
     "search and the fit of `geocode reconstruct`, and without them it does worse than simply "
     "taking the nearest training shape.",
-    "Drawings are answered by the network alone; free-hand doodles unlike Freestyle's line "
-    "drawings (three cameras, 30 degrees above the horizon) are read loosely.",
+    "A drawing is answered by the network, then fitted (`--refine`): the search draws the program "
+    "and compares the strokes, so a part the network misreads and one view shows little of (a "
+    "vase's handle count or foot) often stays wrong, and against a sparse free-hand doodle the "
+    "fit may add a part the doodle lacks (docs/wild.md, Drawings).",
 ]
 
 
