@@ -137,7 +137,9 @@ def test_a_folder_is_reconstructed_with_a_page(files, tmp_path, capsys):
                  "--checkpoint", str(files["ckpt"]), "--refine", "3", "--candidates", "2"]) == 0
     summary = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     seconds = summary.pop("seconds_median"), *summary.pop("seconds_range")
+    before, after = summary.pop("chamfer_before_median"), summary.pop("chamfer_after_median")
     assert summary == {"inputs": 3, "reconstructed": 2, "failed": 1, "page": str(out / "index.html")}
+    assert 0 < after <= before   # the same file twice: its own distances, the fit never worse
     assert 0 < seconds[1] <= seconds[0] <= seconds[2]
     assert (out / "vase.blend").exists() and (out / "sub" / "vase.blend").exists()
     html = (out / "index.html").read_text()

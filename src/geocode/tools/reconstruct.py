@@ -390,7 +390,12 @@ def reconstruct(cfg, domain: str, input_path: Path, out_dir: Path, checkpoint: P
         return summaries[0]
     done = [s for s in summaries if "error" not in s]
     seconds = [s["seconds"] for s in done]
+    # the medians of each kind of distance (3D inputs' Chamfer, drawings' px) apart
+    medians = {f"{key}_median": round(float(np.median(values)), 6)
+               for key in ("chamfer_before", "chamfer_after", "drawing_before", "drawing_after")
+               if (values := [s[key] for s in done if key in s])}
     return {"inputs": len(files), "reconstructed": len(done), "failed": len(files) - len(done),
+            **medians,
             "seconds_median": round(float(np.median(seconds)), 2) if seconds else None,
             "seconds_range": [min(seconds), max(seconds)] if seconds else None,
             "page": str(out_dir / "index.html")}
