@@ -18,11 +18,14 @@ from geocode.linedraw import (
     strokes,
 )
 from geocode.meshio import normalise_unit_sphere
+from geocode.program import Program
 from geocode.recipe import Parameter
 from geocode.sketchfit import (
     CameraSpace,
+    DrawingFit,
     Shapes,
     bounding_box,
+    branches,
     drawing_feedback,
     fit_drawing,
     framed,
@@ -74,6 +77,9 @@ class Boxes:
     def satisfies(self, values):
         return True
 
+    def shown(self, values):
+        return {p.name: True for p in self.parameters}
+
     def evaluate(self, values):
         v = {"width": 1.2, "depth": 0.7, **self.check(values)}
         boxes = [trimesh.creation.box((v["width"], v["depth"], 0.3)).apply_translation((0, 0, 0.5 * k))
@@ -116,6 +122,43 @@ def test_fit_recovers_the_parameters_and_the_count():
     assert result.values["count"] == 2.0
     assert result.values["width"] == pytest.approx(1.3, abs=0.12)
     assert result.after < 1.0 < result.before
+
+
+def test_branches_hold_each_option_of_the_least_sure_parameter_the_shape_shows():
+    """The vase without a lid does not show its knob: the branches are the handle count's
+    options (listed after the knob's), each held alone, the other options kept."""
+    recipe = Program.load("vase").recipe()
+    values = {**recipe.defaults, "lid": 0.0, "handle_count": 2.0}
+    options = {"knob": [0.0, 1.0], "handle_count": [2.0, 1.0, 4.0], "band": [0.0, 1.0]}
+    held = branches(recipe, Start(values, options), 2)
+    assert [s.values["handle_count"] for s in held] == [2.0, 1.0]
+    assert [s.options["handle_count"] for s in held] == [[2.0], [1.0]]
+    assert all(s.options["band"] == [0.0, 1.0] and s.options["knob"] == [0.0, 1.0] for s in held)
+    assert branches(recipe, Start(values, {"knob": [0.0, 1.0]}), 3)[0].options == {"knob": [0.0, 1.0]}
+    assert len(branches(recipe, Start(values, options), 1)) == 1
+
+
+def test_fit_answers_the_branch_whose_search_ends_nearest(monkeypatch):
+    """Three branches of the box count, each searched on a third of the budget: the answer is
+    the branch that ends nearest the drawing (count 2 here), `before` is the network's own
+    choice's, and the curve runs over all three searches."""
+    import geocode.sketchfit as sketchfit
+
+    ends = {1.0: 2.0, 2.0: 0.5, 3.0: 1.5}
+    shares = []
+
+    def search(program, recipe, starts, drawing, drawer, budget, *rest):
+        count = starts[0].values["count"]
+        shares.append((starts[0].options["count"], budget))
+        return DrawingFit(values=dict(starts[0].values), camera=View(), before=3.0 + count,
+                          after=ends[count], evaluations=budget, seconds=0.0, curve=[3.0 + count] * budget)
+
+    monkeypatch.setattr(sketchfit, "search", search)
+    start = Start({"width": 1.0, "depth": 0.7, "count": 1.0}, {"count": [1.0, 2.0, 3.0]})
+    result = fit_drawing(BOXES, BOXES, [start], boxes_drawing(start.values, View()), budget=800)
+    assert shares == [([1.0], 266), ([2.0], 267), ([3.0], 267)]
+    assert result.values["count"] == 2.0 and result.after == 0.5 and result.before == 4.0
+    assert result.evaluations == 800 and result.curve == sorted(result.curve, reverse=True)
 
 
 def test_fit_keeps_the_trained_view_where_a_quarter_turn_draws_nearly_as_well():

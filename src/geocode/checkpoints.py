@@ -146,7 +146,8 @@ def default_checkpoint(cfg, domain: str) -> Path:
 
 def ranked_prediction(model, recipe, modality: str, data: np.ndarray, decode: str, k: int = TOP_CLASSES):
     """(raw values of the predicted classes (`decode`: eval.decode), {discrete parameter: its
-    k most probable raw values}) for one input of a modality (points (N, 3) or sketch (1, H, W))."""
+    k most probable raw values}, the parameters the network is least sure of first: by the
+    entropy of its distribution over the values) for one input of a modality (points (N, 3) or sketch (1, H, W))."""
     return ranked_predictions(model, recipe, modality, data[None], decode, k)[0]
 
 
@@ -160,7 +161,7 @@ def ranked_predictions(model, recipe, modality: str, batch: np.ndarray, decode: 
     out = []
     for b, classes in enumerate(best):
         start = recipe.values_from_classes(dict(zip(model.parameter_names, classes, strict=True)))
-        options = {}
+        options, doubt = {}, {}
         for p in recipe.parameters:
             logits = outputs[p.name][b]
             if p.kind == "float" or len(logits) != p.n_classes:   # continuous, or regressed
@@ -168,7 +169,10 @@ def ranked_predictions(model, recipe, modality: str, batch: np.ndarray, decode: 
             ranked = torch.argsort(logits, descending=True)[:k].tolist()
             values = [float(p.classes[c]) if c < len(p.classes) else float(p.default) for c in ranked]
             options[p.name] = list(dict.fromkeys(values))   # the existence class may repeat one
-        out.append((start, options))
+            shown = torch.softmax(logits, dim=0)[:p.n_values]
+            shown = shown / shown.sum().clamp_min(1e-12)
+            doubt[p.name] = -float((shown * torch.log(shown.clamp_min(1e-12))).sum())
+        out.append((start, {name: options[name] for name in sorted(options, key=lambda n: -doubt[n])}))
     return out
 
 

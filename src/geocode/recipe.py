@@ -473,6 +473,10 @@ class Recipe:
         """Nearest value class, or the existence class where invisible."""
         return dict(zip(self.names, self.class_matrix(self._row(values))[0].tolist(), strict=True))
 
+    def shown(self, values: Mapping[str, float]) -> dict[str, bool]:
+        """Is each recipe parameter visible (does it change the shape) at these values."""
+        return dict(zip(self.names, self.visibility_matrix(self._row(values))[0].tolist(), strict=True))
+
     def satisfies(self, values: Mapping[str, float]) -> bool:
         return bool(self.constraint_mask(self._row(values))[0])
 
