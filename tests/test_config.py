@@ -18,7 +18,8 @@ def test_the_models_give_every_key_a_meaning_and_valid_values():
     keys = documented_keys()
     assert {"seed", "paths.runs", "data.points.fps", "model._target_", "train.lr", "eval.fit"} <= set(keys)
     assert all(meaning and valid for meaning, valid in keys.values())
-    assert MAPPINGS == {"data.domain_variations", "train.domain_epochs", "train.variant_epochs"}
+    assert MAPPINGS == {"data.domain_variations", "train.domain_epochs", "train.variant_epochs",
+                        "eval.sketch_fit_branches"}
 
 
 def test_a_key_the_models_do_not_know_is_refused():

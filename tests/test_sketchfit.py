@@ -25,10 +25,10 @@ from geocode.sketchfit import (
     DrawingFit,
     Shapes,
     bounding_box,
-    branches,
     drawing_feedback,
     fit_drawing,
     framed,
+    held_options,
     mean_curve,
 )
 
@@ -124,18 +124,18 @@ def test_fit_recovers_the_parameters_and_the_count():
     assert result.after < 1.0 < result.before
 
 
-def test_branches_hold_each_option_of_the_least_sure_parameter_the_shape_shows():
+def test_held_options_are_each_option_of_the_least_sure_parameter_the_shape_shows():
     """The vase without a lid does not show its knob: the branches are the handle count's
     options (listed after the knob's), each held alone, the other options kept."""
     recipe = Program.load("vase").recipe()
     values = {**recipe.defaults, "lid": 0.0, "handle_count": 2.0}
     options = {"knob": [0.0, 1.0], "handle_count": [2.0, 1.0, 4.0], "band": [0.0, 1.0]}
-    held = branches(recipe, Start(values, options), 2)
+    held = held_options(recipe, Start(values, options), 2)
     assert [s.values["handle_count"] for s in held] == [2.0, 1.0]
     assert [s.options["handle_count"] for s in held] == [[2.0], [1.0]]
     assert all(s.options["band"] == [0.0, 1.0] and s.options["knob"] == [0.0, 1.0] for s in held)
-    assert branches(recipe, Start(values, {"knob": [0.0, 1.0]}), 3)[0].options == {"knob": [0.0, 1.0]}
-    assert len(branches(recipe, Start(values, options), 1)) == 1
+    assert held_options(recipe, Start(values, {"knob": [0.0, 1.0]}), 3)[0].options == {"knob": [0.0, 1.0]}
+    assert len(held_options(recipe, Start(values, options), 1)) == 1
 
 
 def test_fit_answers_the_branch_whose_search_ends_nearest(monkeypatch):
@@ -155,7 +155,7 @@ def test_fit_answers_the_branch_whose_search_ends_nearest(monkeypatch):
 
     monkeypatch.setattr(sketchfit, "search", search)
     start = Start({"width": 1.0, "depth": 0.7, "count": 1.0}, {"count": [1.0, 2.0, 3.0]})
-    result = fit_drawing(BOXES, BOXES, [start], boxes_drawing(start.values, View()), budget=800)
+    result = fit_drawing(BOXES, BOXES, [start], boxes_drawing(start.values, View()), budget=800, branches=3)
     assert shares == [([1.0], 266), ([2.0], 267), ([3.0], 267)]
     assert result.values["count"] == 2.0 and result.after == 0.5 and result.before == 4.0
     assert result.evaluations == 800 and result.curve == sorted(result.curve, reverse=True)

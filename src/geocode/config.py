@@ -96,7 +96,7 @@ def _check_known(cfg: DictConfig) -> None:
                               f"use one of {', '.join(known) or 'none (add a program and its recipe)'}")
     # the profiles name the project's domains; a programs folder of one's own may lack them
     shipped = {p.stem for p in (repo_root() / "programs").glob("*.yaml")}
-    for key in ("data.domain_variations", "train.domain_epochs"):
+    for key in ("data.domain_variations", "train.domain_epochs", "eval.sketch_fit_branches"):
         for name in OmegaConf.select(cfg, key) or {}:
             if name not in {*known, *shipped}:
                 raise ConfigError(f"{key}.{name}", "no such domain", f"use one of {', '.join(known) or 'none'}")
@@ -190,6 +190,11 @@ def split_variations(cfg: DictConfig, domain: str) -> dict[str, int]:
     """Shapes per parameter class of each split: data.variations, with the domain's entries
     in data.domain_variations in their place (null: none)."""
     return {**cfg.data.variations, **(cfg.data.domain_variations or {}).get(domain, {})}
+
+
+def sketch_fit_branches(cfg: DictConfig, domain: str) -> int:
+    """The domain's searches of a drawing's fit (eval.sketch_fit_branches; 1 where not given)."""
+    return int((cfg.eval.sketch_fit_branches or {}).get(domain, 1))
 
 
 def max_epochs(cfg: DictConfig, variant: str, domain: str | None = None) -> int:

@@ -242,6 +242,9 @@ class Eval(Group):
     reconstruct_budget: whole(0) = key("program evaluations of the fit of `geocode reconstruct` (--refine)")
     sketch_fit_budget: whole(0) = key("program evaluations of each test sketch's fit (eval.fit, sketch "
                                       "conditions)")
+    sketch_fit_branches: Annotated[dict[Name, whole(1)] | None, Expect("null or a mapping {<domain>: a whole number >= 1}")] = key(
+        "per-domain searches of a drawing's fit, {<domain>: N}: one for each of the network's N likeliest options "
+        "of its least sure discrete choice, the budget shared (docs/wild.md); other domains 1")
     max_fit_shapes: Shapes = key("fit the predictions of eval.fit's conditions on at most this many of the "
                                  "test shapes (an even spread); null: all")
     fit: each(Name) = key("test conditions (pc, pc-noise0.02, sketch-<camera>, ...) whose predictions are "
