@@ -89,7 +89,8 @@ class Pose:
 @dataclass
 class Start:
     """A point the search may start from: raw values (every program parameter), the candidate
-    values of each discrete parameter (most probable first), and the input's turn."""
+    values of each discrete parameter (most probable first; the parameters the network is
+    least sure of first), and the input's turn."""
 
     values: dict[str, float]
     options: dict[str, list[float]] = field(default_factory=dict)

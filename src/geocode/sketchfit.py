@@ -229,11 +229,12 @@ def fit_drawing(program, recipe, starts: Sequence[Start], drawing: np.ndarray,
     drawing is nearest `drawing` ((224, 224) or (1, 224, 224) float, white 1, strokes 0, as
     `reconstruct.sketch_from_image` or `training_data.load_sketch` give), by
     `linedraw.drawing_distance`. The first of `starts` (the network's answer, with its
-    discrete options, the least sure first) is searched once per branch (`branches`: at most
-    that many, and as many as the budget gives BRANCH_BUDGET evaluations; config
-    `sketch_fit_branches`), each on an equal share of the budget, the others of `starts` beside it; each search tries every
-    start from every camera guess and framing, then sweeps and CMA-ES from the best (module
-    docstring). The answer is the branch whose drawing is nearest. Its camera views the
+    discrete options, the least sure first) is searched once per branch (`held_options`; at
+    most `branches`, the config's eval.sketch_fit_branches, and as many as give each
+    BRANCH_BUDGET evaluations), each on an equal share of the budget, the other starts beside
+    it; each search tries every start from every camera guess and framing, then sweeps and
+    CMA-ES from the best (module docstring). The answer is the branch whose drawing ends
+    nearest. Its camera views the
     unit-sphere shape (`meshio.normalise_unit_sphere`) of its values. `helpers`: processes
     that draw the starts and CMA-ES's generations beside this one (`Drawer`). `read`: the
     network's reading of drawings (`checkpoints.reader`), for `drawing_feedback` on the
