@@ -3,6 +3,8 @@ search recovering a known camera and parameter from drawings rendered by `linedr
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 import trimesh
@@ -60,6 +62,7 @@ def test_framing_puts_the_strokes_on_the_targets_box():
 
 def test_mean_curve_holds_each_fits_last_value():
     assert mean_curve([[3.0, 2.0, 1.0], [4.0]], points=(1, 3)) == {1: 3.5, 3: 2.5}
+    assert mean_curve([[math.inf, 2.0], [4.0, 3.0]], points=(1, 2)) == {1: None, 2: 2.5}   # no Infinity in JSON
 
 
 class Boxes:

@@ -360,11 +360,13 @@ def drawing_feedback(read, shapes: Shapes, distance: DrawingDistance, recipe, dr
 def mean_curve(curves: Sequence[Sequence[float]], points: Sequence[int] = (1, 10, 25, 50, 100, 200,
                                                                             300, 400, 600, 800)) -> dict:
     """{evaluations: the mean over fits of the best drawing distance after that many} (a fit
-    that stopped earlier counts with its final value)."""
+    that stopped earlier counts with its final value; None while a fit has found no shape the
+    program makes yet, so that the JSON stays standard, without Infinity)."""
     out = {}
     for p in points:
         if curves and p <= max(len(c) for c in curves):
-            out[p] = round(float(np.mean([c[min(p, len(c)) - 1] for c in curves])), 4)
+            mean = float(np.mean([c[min(p, len(c)) - 1] for c in curves]))
+            out[p] = round(mean, 4) if math.isfinite(mean) else None
     return out
 
 
