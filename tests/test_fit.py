@@ -191,3 +191,28 @@ def test_cloud_feedback_cancels_a_reading_biased_alike_on_every_cloud():
     assert len(starts) == 4 and all(s.turn == 0.5 for s in starts)
     assert starts[0].values["width"] == pytest.approx(1.3, abs=0.06)
     assert starts[-1].values["width"] == pytest.approx(1.0, abs=0.03)
+
+
+def test_readings_apart_by_rounding_give_the_same_feedback_rounds():
+    """Two readings of one input 1e-7 apart (the input turned, its canonical cloud rounded
+    differently) give bit-identical rounds: each round's values are snapped to SNAP of the
+    range, where the feedback would otherwise carry (and with a network, grow) the gap."""
+    from types import SimpleNamespace
+
+    from geocode.fit import SNAP, network_feedback, shape_points, snapped
+
+    slab, points_cfg = Slab(), SimpleNamespace(fps=256, train_random=128)
+    width = snapped(slab, {"width": 1.0123456})["width"]    # range 0.4..1.6: a grid of 0.0012
+    assert width == pytest.approx(0.4 + 510 * SNAP * 1.2) and abs(width - 1.0123456) <= SNAP * 1.2 / 2
+
+    def render(values):
+        return shape_points(slab, values, 512)
+
+    def read(clouds):
+        return [{"width": 0.4 + 0.9 * float(c[:, 0].max() - c[:, 0].min())} for c in clouds]
+
+    def rounds(gap):
+        return [v for v, _ in network_feedback(read, render, slab, {"width": 1.1 + 0.123456 + gap},
+                                               {"width": 0.7}, 3)]
+
+    assert rounds(0.0) == rounds(1e-7)

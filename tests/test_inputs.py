@@ -7,7 +7,7 @@ import trimesh
 
 from geocode import inputs
 from geocode.errors import UserError
-from geocode.inputs import keep_main_object, read_geometry, sample_mesh, surface_points
+from geocode.inputs import keep_main_object, read_geometry, surface_points
 
 
 def stool():
@@ -102,19 +102,6 @@ def test_obj_objects_are_pieces_and_two_equal_objects_are_both_kept(tmp_path):
     path.write_text(text)
     got = read_geometry(path)
     assert got.mesh.area == pytest.approx(a.area, rel=1e-4) and "1 apart" in got.note
-
-
-def test_sampling_is_area_weighted_in_chunks(monkeypatch):
-    big = trimesh.creation.box((1, 1, 1))
-    small = trimesh.creation.box((0.1, 0.1, 0.1)).apply_translation((3, 0, 0))
-    mesh = one([big, small])
-    monkeypatch.setattr(inputs, "CHUNK_FACES", 5)   # many chunks on a small mesh
-    points = sample_mesh(mesh, 20000, np.random.default_rng(0))
-    share = (points[:, 0] > 2).mean()
-    assert points.shape == (20000, 3)
-    assert share == pytest.approx(small.area / mesh.area, abs=0.003)
-    inner = points[points[:, 0] < 2]   # on the unit box's faces: one coordinate at +-0.5
-    assert np.allclose(np.abs(inner).max(1), 0.5)
 
 
 def test_large_meshes_become_points_and_large_clouds_are_subsampled(tmp_path, monkeypatch):

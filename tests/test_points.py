@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from geocode import meshio
+from geocode import meshio, points
 from geocode.errors import UserError
 from geocode.points import (
     add_noise,
@@ -18,6 +18,7 @@ from geocode.points import (
     save_clouds,
     simplify,
     sparse_cloud,
+    surface_samples,
 )
 
 
@@ -44,6 +45,32 @@ def test_sampling_is_seeded():
     a = sample_surface(mesh, 100, np.random.default_rng(7))
     b = sample_surface(mesh, 100, np.random.default_rng(7))
     assert np.array_equal(a, b)
+
+
+def test_sampling_in_chunks_gives_the_same_points(monkeypatch):
+    big = trimesh.creation.box((1, 1, 1))
+    small = trimesh.creation.box((0.1, 0.1, 0.1)).apply_translation((3, 0, 0))
+    mesh = trimesh.util.concatenate([big, small])
+    whole = surface_samples(mesh.vertices, mesh.faces, 20000, np.random.default_rng(0))
+    monkeypatch.setattr(points, "CHUNK_FACES", 5)   # many chunks on a small mesh
+    chunked = surface_samples(mesh.vertices, mesh.faces, 20000, np.random.default_rng(0))
+    assert chunked.shape == (20000, 3) and np.array_equal(whole, chunked)
+    assert (chunked[:, 0] > 2).mean() == pytest.approx(small.area / mesh.area, abs=0.003)
+    inner = chunked[chunked[:, 0] < 2]   # on the unit box's faces: one coordinate at +-0.5
+    assert np.allclose(np.abs(inner).max(1), 0.5)
+
+
+def test_a_mesh_moved_by_rounding_gives_the_same_points_moved_alike():
+    """The point of the stratified, hashed sampler: inverse-CDF sampling sends about 1% of
+    the points of a 20,480-face sphere to other faces when its vertices move by 1e-7."""
+    mesh = trimesh.creation.icosphere(5)
+    moved = mesh.vertices + np.random.default_rng(1).normal(0, 1e-7, mesh.vertices.shape)
+    a = surface_samples(mesh.vertices, mesh.faces, 4096, np.random.default_rng(0))
+    b = surface_samples(moved, mesh.faces, 4096, np.random.default_rng(0))
+    assert np.abs(a - b).max() < 1e-6
+    turn = trimesh.transformations.rotation_matrix(2.4, [0, 0, 1])[:3, :3]
+    c = surface_samples(mesh.vertices @ turn.T, mesh.faces, 4096, np.random.default_rng(0))
+    assert np.abs(c @ turn - a).max() < 1e-9
 
 
 def test_fps_picks_far_apart_points():

@@ -50,6 +50,7 @@ POLISH = 200             # evaluations kept for sweeps from the best shape found
 POLISH_STEPS = (0.03, 0.015)         # ... by these steps
 FEEDBACK = 4             # rounds of `cloud_feedback`, each a start of the fit ...
 FEEDBACK_POINTS = 4096   # ... from this many surface points of its shape
+SNAP = 1e-3              # starts' continuous values are rounded to this share of each range
 
 
 @dataclass(frozen=True)
@@ -302,7 +303,7 @@ def fit(program, recipe, starts: Sequence[Start], target: np.ndarray, budget: in
     processes that score candidates beside this one (`Scorer`)."""
     started = time.perf_counter()
     scorer = Scorer(program, CloudDistance(target, trim), pose, helpers)
-    spaces = [SearchSpace(recipe, Start(program.check(s.values), s.options, s.turn))
+    spaces = [SearchSpace(recipe, Start(program.check(snapped(recipe, s.values)), s.options, s.turn))
               for s in starts[:max(1, budget)]]
     curve: list[float] = []
     found: dict[int, tuple[float, np.ndarray, Pose]] = {}   # start -> its best (f, x, pose)
@@ -351,6 +352,19 @@ def fit(program, recipe, starts: Sequence[Start], target: np.ndarray, budget: in
                      seconds=time.perf_counter() - started, curve=curve, found=runs_found)
 
 
+def snapped(recipe, values: Mapping[str, float]) -> dict[str, float]:
+    """`values` with each continuous recipe parameter rounded to SNAP of its range. Readings
+    of one input that differ by rounding (the input turned, its canonical cloud 1e-7 away)
+    then give the same starts, where the feedback's rounds would grow a 1e-7 difference
+    100-fold a round and the fit end elsewhere (docs/wild.md, Turns)."""
+    out = dict(values)
+    for p in recipe.parameters:
+        if p.kind == "float" and p.name in out and p.max > p.min:
+            steps = round((out[p.name] - p.min) / (p.max - p.min) / SNAP)
+            out[p.name] = min(p.max, p.min + steps * SNAP * (p.max - p.min))
+    return out
+
+
 def network_feedback(read, render, recipe, wanted: Mapping[str, float], values: Mapping[str, float],
                      rounds: int) -> list[tuple[dict, np.ndarray]]:
     """The network's answer corrected by its own misreading, `rounds` times: each round moves
@@ -367,8 +381,8 @@ def network_feedback(read, render, recipe, wanted: Mapping[str, float], values: 
     ranges = {p.name: (p.min, p.max) for p in recipe.parameters}
     values, seen, found = dict(values), {}, []
     for _ in range(rounds):
-        values.update({k: float(np.clip(values[k] + v - seen.get(k, values[k]), *ranges[k]))
-                       for k, v in wanted.items()})
+        values.update(snapped(recipe, {k: float(np.clip(values[k] + v - seen.get(k, values[k]), *ranges[k]))
+                                       for k, v in wanted.items()}))
         rendered = render(values) if recipe.satisfies(values) else None
         if rendered is None:
             break

@@ -15,7 +15,7 @@ object (`MAIN_SHARE` of the surface area).
 
 Size: files above `MAX_BYTES` are refused (trimesh reads a file whole, about 3-5x its size in
 memory). Meshes are kept up to `MAX_FACES`; beyond, their surface is sampled to `LARGE_POINTS`
-points and the mesh let go. Sampling works in chunks of `CHUNK_FACES` faces, so its temporary
+points and the mesh let go. Sampling (`points.surface_samples`) holds one chunk of faces at a time, so its temporary
 memory stays under about 0.3 GB however large the mesh. Clouds above `MAX_POINTS` are
 subsampled (seeded, reproducible).
 """
@@ -33,6 +33,7 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import connected_components
 
 from geocode.errors import UserError, one_line
+from geocode.points import face_areas, surface_samples
 from geocode.seeds import generator
 
 MESH_SUFFIXES = tuple(s for s in (".obj", ".ply", ".stl", ".off", ".glb", ".gltf", ".3mf", ".dae")
@@ -43,7 +44,6 @@ MAX_BYTES = 1 << 30            # 1 GiB
 MAX_FACES = 5_000_000          # larger meshes are kept as LARGE_POINTS surface points
 LARGE_POINTS = 1_000_000
 MAX_POINTS = 2_000_000         # larger clouds are subsampled to this
-CHUNK_FACES = 1 << 20          # ~1M faces: 9 float64 each plus temporaries, about 0.3 GB
 HEADER_LINES = 200             # leading non-numeric lines a text cloud may have
 GAP_SHARE = 0.02               # pieces whose boxes are this close (share of the scene's diagonal) touch
 MAIN_SHARE = 0.8               # the main group must hold this share of the area for others to go
@@ -283,13 +283,13 @@ def _mesh_geometry(path: Path) -> Geometry:
     mesh = trimesh.util.concatenate([meshes[i] for i in keep]) if len(keep) > 1 else meshes[keep[0]]
     mesh = trimesh.Trimesh(np.asarray(mesh.vertices, dtype=np.float64), mesh.faces, process=False)
     faces = len(mesh.faces)
-    area = _total_area(mesh)
+    area = float(face_areas(mesh.vertices, mesh.faces).sum())
     if not area > 0:
         raise UserError(path, f"the mesh has no surface area ({faces} faces, all degenerate)",
                         "give a mesh with real faces")
     note = f"mesh of {faces} faces" + (f" ({note})" if note else "")
     if faces > MAX_FACES:
-        points = sample_mesh(mesh, LARGE_POINTS, generator(0, "inputs", "large", path.name))
+        points = surface_samples(mesh.vertices, mesh.faces, LARGE_POINTS, generator(0, "inputs", "large", path.name))
         return Geometry(path, points, None, f"{note}, above {MAX_FACES} faces: "
                         f"kept as {LARGE_POINTS} surface points")
     return Geometry(path, None, mesh, note)
@@ -297,46 +297,12 @@ def _mesh_geometry(path: Path) -> Geometry:
 
 # -- sampling -------------------------------------------------------------------------------------
 
-def _chunk_areas(vertices: np.ndarray, faces: np.ndarray, start: int) -> np.ndarray:
-    tri = vertices[faces[start:start + CHUNK_FACES]]
-    return np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1) / 2
-
-
-def _total_area(mesh: trimesh.Trimesh) -> float:
-    vertices, faces = np.asarray(mesh.vertices, dtype=np.float64), np.asarray(mesh.faces)
-    return float(sum(_chunk_areas(vertices, faces, s).sum() for s in range(0, len(faces), CHUNK_FACES)))
-
-
-def sample_mesh(mesh: trimesh.Trimesh, n: int, rng: np.random.Generator) -> np.ndarray:
-    """n points uniform over the surface (area-weighted), (n, 3) float64, a chunk of
-    CHUNK_FACES faces at a time: the chunks' areas fix how many points each gets
-    (multinomial), then each chunk is sampled on its own; memory never holds more than one
-    chunk's triangles, whatever the face count."""
-    vertices, faces = np.asarray(mesh.vertices, dtype=np.float64), np.asarray(mesh.faces)
-    starts = range(0, len(faces), CHUNK_FACES)
-    totals = np.array([_chunk_areas(vertices, faces, s).sum() for s in starts])
-    counts = rng.multinomial(n, totals / totals.sum())
-    out = []
-    for start, count in zip(starts, counts, strict=True):
-        if count == 0:
-            continue
-        area = _chunk_areas(vertices, faces, start)
-        cum = np.cumsum(area)
-        face = np.minimum(np.searchsorted(cum, rng.random(count) * cum[-1], side="right"), len(cum) - 1)
-        tri = vertices[faces[start:start + CHUNK_FACES][face]]
-        uv = rng.random((count, 2))
-        flip = uv.sum(1) > 1
-        uv[flip] = 1 - uv[flip]
-        out.append(tri[:, 0] + uv[:, :1] * (tri[:, 1] - tri[:, 0]) + uv[:, 1:] * (tri[:, 2] - tri[:, 0]))
-    return np.concatenate(out)
-
-
 def surface_points(geometry: Geometry, n: int, rng: np.random.Generator) -> np.ndarray:
     """n points of the input, (n, 3) float64 in its own frame: area-weighted surface samples
     of a mesh; a cloud's own points, subsampled without repeats (or all of them, with
     repeats to reach n, when it has fewer)."""
     if geometry.mesh is not None:
-        return sample_mesh(geometry.mesh, n, rng)
+        return surface_samples(geometry.mesh.vertices, geometry.mesh.faces, n, rng)
     points = geometry.points
     if len(points) >= n:
         return points[np.sort(rng.choice(len(points), n, replace=False))]

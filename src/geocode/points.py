@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import io
 import logging
+import math
 import zipfile
 from collections.abc import Mapping
 from pathlib import Path
@@ -22,28 +23,93 @@ from geocode.timing import Progress
 log = logging.getLogger(__name__)
 
 CLOUD_KEYS = ("fps", "random")
+CHUNK_FACES = 1 << 20   # faces whose triangles are held at once (~1M: 9 float64 each, about 0.3 GB with temporaries)
+_ID_BITS = 24           # a sample's id: its face << _ID_BITS | its number on that face
+OVERSAMPLE = 8          # candidate points per sample kept (`surface_samples`)
+
+
+def _mix(x: np.ndarray) -> np.ndarray:
+    """splitmix64's finaliser: a well-spread uint64 for each uint64 (wrapping arithmetic)."""
+    with np.errstate(over="ignore"):
+        x = x + np.uint64(0x9E3779B97F4A7C15)
+        x = (x ^ (x >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
+        x = (x ^ (x >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
+        return x ^ (x >> np.uint64(31))
+
+
+def _unit(x: np.ndarray) -> np.ndarray:
+    """uint64 -> float64 in [0, 1)."""
+    return (x >> np.uint64(11)).astype(np.float64) * 2.0 ** -53
+
+
+def face_areas(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Each face's area, (F,) float64, the triangles of CHUNK_FACES faces at a time."""
+    vertices, faces = np.asarray(vertices, dtype=np.float64), np.asarray(faces)
+    out = np.empty(len(faces))
+    for start in range(0, len(faces), CHUNK_FACES):
+        tri = vertices[faces[start:start + CHUNK_FACES]]
+        a, b = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+        cross = np.stack([a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1], a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2],
+                          a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]], axis=1)
+        out[start:start + len(tri)] = np.sqrt(np.einsum("ij,ij->i", cross, cross)) / 2
+    return out
+
+
+def surface_samples(vertices: np.ndarray, faces: np.ndarray, n: int, rng: np.random.Generator) -> np.ndarray:
+    """n points uniform over the surface (area-weighted), (n, 3) float64, in random order.
+
+    Stable under rounding: a mesh moved a little (a file saved turned, a program's shape at a
+    value 1e-6 away) gives the same points moved alike, in the same order, where inverse-CDF
+    sampling sends some points to other faces (and the fit's objective, the network's cloud
+    and all after them jump; docs/wild.md, Turns). Face f gets floor(OVERSAMPLE * n * its
+    share of the area + r_f) candidate points, r_f uniform; each candidate's place in its
+    face, its slot (of n) and its rank come from a hash of (face, number), not from a running
+    draw; each slot keeps its best ranked candidate (a slot left empty, e^-OVERSAMPLE of
+    them, repeats its neighbour's). A moved vertex changes a count only where it carries the
+    count across an integer, and that moves one slot. Memory holds one chunk of CHUNK_FACES
+    faces' triangles at a time, whatever the face count (and 8 bytes a face for the areas).
+    """
+    vertices, faces = np.asarray(vertices, dtype=np.float64), np.asarray(faces)
+    if not 0 < n < 1 << (_ID_BITS - 4):
+        raise ValueError(f"surface_samples: n={n} must be in 1..{(1 << (_ID_BITS - 4)) - 1}")
+    area = face_areas(vertices, faces)
+    total = area.sum()
+    if len(faces) == 0 or not total > 0:
+        raise ValueError("mesh has no surface area to sample")
+    salt = _mix(np.asarray(rng.integers(1 << 62, size=5), dtype=np.uint64))
+    empty = np.iinfo(np.uint64).max
+    best_rank, best_id = np.full(n, empty, dtype=np.uint64), np.zeros(n, dtype=np.uint64)
+    for start in range(0, len(faces), CHUNK_FACES):
+        ids = _candidates(area[start:start + CHUNK_FACES], start, OVERSAMPLE * n / total, salt[0])
+        slot = (_mix(ids ^ salt[1]) % np.uint64(n)).astype(np.int64)
+        rank = _mix(ids ^ salt[2]) >> np.uint64(1)    # below `empty`
+        np.minimum.at(best_rank, slot, rank)
+        won = rank == best_rank[slot]
+        best_id[slot[won]] = ids[won]
+    kept = np.flatnonzero(best_rank != empty)
+    if not len(kept):
+        raise ValueError("mesh has no surface area to sample")
+    ids = best_id[kept[np.searchsorted(kept, np.arange(n)) % len(kept)]]
+    u, v = _unit(_mix(ids ^ salt[3])), _unit(_mix(ids ^ salt[4]))
+    flip = u + v > 1
+    u[flip], v[flip] = 1 - u[flip], 1 - v[flip]
+    tri = vertices[faces[(ids >> np.uint64(_ID_BITS)).astype(np.int64)]]   # n triangles
+    return tri[:, 0] + u[:, None] * (tri[:, 1] - tri[:, 0]) + v[:, None] * (tri[:, 2] - tri[:, 0])
+
+
+def _candidates(area: np.ndarray, start: int, density: float, salt: np.uint64) -> np.ndarray:
+    """The ids (face << _ID_BITS | number) of floor(density * area + r_f) candidate points
+    on each face of a chunk that starts at face `start` (r_f in [0, 1), a hash of the face)."""
+    face = np.arange(start, start + len(area), dtype=np.uint64)
+    count = np.floor(area * density + _unit(_mix(face ^ salt))).astype(np.int64)
+    face = np.repeat(face, count)
+    number = np.arange(len(face)) - np.repeat(np.cumsum(count) - count, count)
+    return (face << np.uint64(_ID_BITS)) | number.astype(np.uint64)
 
 
 def sample_surface(mesh: trimesh.Trimesh, n: int, rng: np.random.Generator) -> np.ndarray:
-    """n points uniform over the surface area, (n,3) float32.
-
-    A triangle is chosen with probability area_t / sum(area) (inverse CDF on the cumulative
-    areas), then a point inside it as a + u (b-a) + v (c-a) with u, v ~ U(0,1), reflected
-    (u, v) -> (1-u, 1-v) when u + v > 1 so that it is uniform over the triangle.
-    """
-    tri = np.asarray(mesh.vertices, dtype=np.float64)[np.asarray(mesh.faces)]  # (F,3,3)
-    ab, ac = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
-    area = np.linalg.norm(np.cross(ab, ac), axis=1) / 2
-    cum = np.cumsum(area)
-    if len(cum) == 0 or not cum[-1] > 0:
-        raise ValueError("mesh has no surface area to sample")
-    face = np.searchsorted(cum, rng.random(n) * cum[-1], side="right")
-    face = np.minimum(face, len(cum) - 1)  # guards the u * total == total rounding case
-    uv = rng.random((n, 2))
-    flip = uv.sum(1) > 1
-    uv[flip] = 1 - uv[flip]
-    pts = tri[face, 0] + uv[:, :1] * ab[face] + uv[:, 1:] * ac[face]
-    return pts.astype(np.float32)
+    """n points uniform over the mesh's surface area, (n,3) float32 (`surface_samples`)."""
+    return surface_samples(mesh.vertices, mesh.faces, n, rng).astype(np.float32)
 
 
 def farthest_point_sampling(points: np.ndarray, k: int, start: int = 0) -> np.ndarray:
