@@ -153,7 +153,7 @@ def test_any_turn_of_a_shape_reaches_the_same_frame_up_to_a_quarter_turn():
         assert abs(math.remainder(found.turn + degrees, 90.0)) < 1.0, degrees
         canonical = found.to_canonical(turned)
         gaps = [cKDTree(reference).query(canonical @ pose.turn_z(90.0 * k).T)[0].max() for k in range(4)]
-        assert min(gaps) < math.radians(pose.LEVEL_SNAP), degrees   # the snap of an unturned shape
+        assert min(gaps) < 1e-3, degrees
 
 
 def test_a_mesh_is_levelled_by_its_faces_exactly():
@@ -206,3 +206,21 @@ def test_a_wrong_up_candidate_still_lays_a_turned_shape_square_on_a_side():
     assert np.allclose(extent, unturned_extent, atol=0.02)
     tilted = np.sort(np.ptp(pose.find_pose(turned, up="x").to_canonical(turned), axis=0))
     assert not np.allclose(tilted, unturned_extent, atol=0.05)   # as given, x is a diagonal
+
+
+def test_a_shape_a_little_off_square_reaches_one_frame_turned_or_not():
+    """Every level turn is taken as found: a shape whose square directions lie 0.4 degrees
+    off the axes is turned by them unturned as well as turned by 137 degrees (leaving the
+    unturned one as it was parted the two frames by those 0.4 degrees)."""
+    import trimesh
+
+    shape = trimesh.util.concatenate([
+        trimesh.creation.box((0.6, 1.2, 0.1)),
+        trimesh.creation.box((0.1, 0.1, 1.0)).apply_transform(
+            trimesh.transformations.rotation_matrix(math.radians(0.8), [0, 0, 1]))])
+    turns = []
+    for degrees in (0.0, 137.0):
+        mesh = shape.copy().apply_transform(trimesh.transformations.rotation_matrix(math.radians(degrees), [0, 0, 1]))
+        turns.append(pose.find_pose(mesh.vertices, up="z", mesh=mesh).turn + degrees)
+    assert 0.05 < abs(turns[0]) < 1.0
+    assert abs(math.remainder(turns[1] - turns[0], 90.0)) < 1e-9

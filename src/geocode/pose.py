@@ -33,7 +33,6 @@ HEIGHT_BINS = 8            # mass profile along a candidate up axis
 ROBUST_RADIUS = 99.0       # percentile of the radii that is 1 in the robust normalisation
 LEVEL_POINTS = 8000        # level_turn looks at this many points (subsampled, seeded) ...
 LEVEL_NEIGHBOURS = 10      # ... and fits a plane to each one's nearest
-LEVEL_SNAP = 1.0           # degrees: a shape this near square to the axes is left as it is
 SQUARE_GAIN = 0.02         # square_rotation turns a file only when that squares it this much more
 TILT_GAIN = 0.04           # ... and find_pose tilts a candidate's up axis by it only for this much
 
@@ -320,7 +319,7 @@ def _level_degrees(normals: np.ndarray, weights: np.ndarray | None = None) -> fl
     moment = np.sum(np.where(h2 > 1e-12, z ** 4 / np.maximum(h2, 1e-12), 0.0)
                     * (1.0 if weights is None else weights))
     degrees = float(np.degrees(np.angle(moment) / 4)) if abs(moment) > 0 else 0.0
-    return 0.0 if abs(degrees) < LEVEL_SNAP else degrees
+    return degrees
 
 
 def level_turn(points: np.ndarray, seed: int = 0,
@@ -331,9 +330,10 @@ def level_turn(points: np.ndarray, seed: int = 0,
     sum h^2 e^(4 i phi) (h, phi: their length and direction; `_normals`, near-horizontal
     faces count little), points along one of them. Turning the input by minus it first makes
     `reconstruct` blind to how the input was turned: any turn of the same shape reaches the
-    same frame up to a quarter-turn, which the front search covers. Furniture square to its
-    axes (within LEVEL_SNAP) stays as it is (0), so that a file in the dataset's own pose is
-    read exactly as the dataset is. `faces`: (normals, areas) of a mesh's faces in the frame
+    same frame up to a quarter-turn, which the front search covers. Every turn is taken as
+    found, however small: leaving inputs within a degree of square as they are parted a
+    shape whose square directions lie a little off (a lamp's arms: 0.01 degrees) from the
+    same shape turned, which was turned by the whole angle (docs/wild.md, Turns). `faces`: (normals, areas) of a mesh's faces in the frame
     of `points`, used instead of normals estimated from the points: exact, where the
     estimated ones leave up to 2 degrees (a turned chair then differs from the unturned one
     by a quarter-turn to float precision, and a square one is left square)."""
