@@ -197,11 +197,9 @@ def test_readings_apart_by_rounding_give_the_same_feedback_rounds():
     """Two readings of one input 1e-7 apart (the input turned, its canonical cloud rounded
     differently) give bit-identical rounds: each round's values are snapped to SNAP of the
     range, where the feedback would otherwise carry (and with a network, grow) the gap."""
-    from types import SimpleNamespace
-
     from geocode.fit import SNAP, network_feedback, shape_points, snapped
 
-    slab, points_cfg = Slab(), SimpleNamespace(fps=256, train_random=128)
+    slab = Slab()
     width = snapped(slab, {"width": 1.0123456})["width"]    # range 0.4..1.6: a grid of 0.0012
     assert width == pytest.approx(0.4 + 510 * SNAP * 1.2) and abs(width - 1.0123456) <= SNAP * 1.2 / 2
 

@@ -381,8 +381,8 @@ def network_feedback(read, render, recipe, wanted: Mapping[str, float], values: 
     ranges = {p.name: (p.min, p.max) for p in recipe.parameters}
     values, seen, found = dict(values), {}, []
     for _ in range(rounds):
-        values.update(snapped(recipe, {k: float(np.clip(values[k] + v - seen.get(k, values[k]), *ranges[k]))
-                                       for k, v in wanted.items()}))
+        moved = {k: float(np.clip(values[k] + v - seen.get(k, values[k]), *ranges[k])) for k, v in wanted.items()}
+        values.update(snapped(recipe, moved))
         rendered = render(values) if recipe.satisfies(values) else None
         if rendered is None:
             break

@@ -15,8 +15,8 @@ object (`MAIN_SHARE` of the surface area).
 
 Size: files above `MAX_BYTES` are refused (trimesh reads a file whole, about 3-5x its size in
 memory). Meshes are kept up to `MAX_FACES`; beyond, their surface is sampled to `LARGE_POINTS`
-points and the mesh let go. Sampling (`points.surface_samples`) holds one chunk of faces at a time, so its temporary
-memory stays under about 0.3 GB however large the mesh. Clouds above `MAX_POINTS` are
+points and the mesh let go. Sampling (`points.surface_samples`) holds one chunk of faces at a
+time, so its temporary memory stays under about 0.3 GB however large the mesh. Clouds above `MAX_POINTS` are
 subsampled (seeded, reproducible).
 """
 
@@ -289,7 +289,8 @@ def _mesh_geometry(path: Path) -> Geometry:
                         "give a mesh with real faces")
     note = f"mesh of {faces} faces" + (f" ({note})" if note else "")
     if faces > MAX_FACES:
-        points = surface_samples(mesh.vertices, mesh.faces, LARGE_POINTS, generator(0, "inputs", "large", path.name))
+        points = surface_samples(mesh.vertices, mesh.faces, LARGE_POINTS,
+                                 generator(0, "inputs", "large", path.name))
         return Geometry(path, points, None, f"{note}, above {MAX_FACES} faces: "
                         f"kept as {LARGE_POINTS} surface points")
     return Geometry(path, None, mesh, note)

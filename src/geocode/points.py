@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import io
 import logging
-import math
 import zipfile
 from collections.abc import Mapping
 from pathlib import Path
@@ -23,7 +22,7 @@ from geocode.timing import Progress
 log = logging.getLogger(__name__)
 
 CLOUD_KEYS = ("fps", "random")
-CHUNK_FACES = 1 << 20   # faces whose triangles are held at once (~1M: 9 float64 each, about 0.3 GB with temporaries)
+CHUNK_FACES = 1 << 20   # faces whose triangles are held at once (9 float64 each: about 0.3 GB)
 _ID_BITS = 24           # a sample's id: its face << _ID_BITS | its number on that face
 OVERSAMPLE = 8          # candidate points per sample kept (`surface_samples`)
 
@@ -72,9 +71,9 @@ def surface_samples(vertices: np.ndarray, faces: np.ndarray, n: int, rng: np.ran
     vertices, faces = np.asarray(vertices, dtype=np.float64), np.asarray(faces)
     if not 0 < n < 1 << (_ID_BITS - 4):
         raise ValueError(f"surface_samples: n={n} must be in 1..{(1 << (_ID_BITS - 4)) - 1}")
-    area = face_areas(vertices, faces)
+    area = face_areas(vertices, faces) if len(faces) else np.zeros(0)
     total = area.sum()
-    if len(faces) == 0 or not total > 0:
+    if not total > 0:
         raise ValueError("mesh has no surface area to sample")
     salt = _mix(np.asarray(rng.integers(1 << 62, size=5), dtype=np.uint64))
     empty = np.iinfo(np.uint64).max
