@@ -1,14 +1,15 @@
 """`geocode bench span <domain> <folder>`: how near a program can come to real shapes at all.
 
 No network: for each mesh of the folder, a long fit (`geocode.fit`, default SPAN_BUDGET
-evaluations) from the program's defaults: first at the four quarter-turns about the up axis,
-then, at the best of them, also from the defaults with one discrete parameter switched to each
-of its other values (a sled base, side panels, an open row: a form one switch away is a start
-of its own, not a long step of the search) and from POOL random shapes of the program's own
-sampler (an office chair is three switches from the defaults: a column, tent legs, a back on
-a post), every discrete parameter searched over all its values, CMA-ES restarted from the best
-starts; the pose (up axis, then turn, scale and
-offset) found as `geocode reconstruct` finds it. What
+evaluations) from the program's defaults and from the defaults with one discrete parameter
+switched to each of its other values (a sled base, side panels, an open row: a form one switch
+away is a start of its own, not a long step of the search), each at the turns about the up
+axis at which `geocode reconstruct` reads a 3D input (every 45 degrees: a shape whose level
+turn ends on its diagonals stands half a quarter-turn off); then, at the turn of the best of
+them, also from POOL random shapes of the program's own sampler (an office chair is three
+switches from the defaults: a column, tent legs, a back on a post), every discrete parameter
+searched over all its values, CMA-ES restarted from the best starts; the up axis, scale and
+offset found as `geocode reconstruct` finds them. What
 distance remains (plain symmetric Chamfer, as `geocode bench real` scores it) is the part of
 the real shapes the program cannot make. Writes a page of each mesh beside the best shape.
 """
@@ -18,6 +19,7 @@ from __future__ import annotations
 import math
 import statistics
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -49,19 +51,24 @@ def switch_starts(defaults: dict[str, float], options: dict[str, list[float]], t
 
 
 def span_fit(program, recipe, target: np.ndarray, budget: int, seed: int):
-    """The fit from the defaults at the four quarter-turns (one evaluation each), then from
-    those, the one-switch starts and POOL random shapes at the best turn: `budget` evaluations
-    in all (at least 5)."""
+    """The fit from the defaults and their one-switch forms at each of reconstruct's TURNS
+    turns (one evaluation each), then from the best of them with the other forms and POOL
+    random shapes at its turn: `budget` evaluations in all. A turn judged by the defaults
+    alone can be lost to a form they lack: a long coffee table's turn went to a diagonal,
+    from which its fit never came back (docs/wild.md, The programs' reach)."""
+    from geocode.tools.reconstruct import TURNS
+
     defaults, options = program.check({}), all_options(recipe)
-    turns = [start_at(defaults, options, k * math.pi / 2) for k in range(4)]
-    first = fit(program, recipe, turns, target, len(turns), seed=seed, restarts=0)
-    best = turns[first.start].turn
+    forms = [start_at(defaults, options, 0.0), *switch_starts(defaults, options, 0.0)]
+    judged = [replace(s, turn=k * 2 * math.pi / TURNS) for k in range(TURNS) for s in forms]
+    first = fit(program, recipe, judged, target, min(len(judged), max(1, budget - 1)), seed=seed,
+                restarts=0)
+    chosen = judged[first.start]
     rng = np.random.default_rng(seed)
-    pool = [start_at(program.random_values(rng), options, best) for _ in range(POOL)]
-    starts = [turns[first.start], *switch_starts(defaults, options, best),
-              *(t for t in turns if t.turn != best), *pool]
+    pool = [start_at(program.random_values(rng), options, chosen.turn) for _ in range(POOL)]
+    starts = [chosen, *(s for s in judged if s.turn == chosen.turn and s is not chosen), *pool]
     # a budget under the number of starts scores the first ones only (`fit`)
-    result = fit(program, recipe, starts, target, max(1, budget - len(turns)), seed=seed,
+    result = fit(program, recipe, starts, target, max(1, budget - first.evaluations), seed=seed,
                  restarts=RESTARTS)
     result.evaluations += first.evaluations
     return result
