@@ -76,6 +76,26 @@ def test_span_finds_a_shape_standing_half_a_quarter_turn_off():
     assert result.after < 5e-4 and abs(math.degrees(result.pose.turn) - 45.0) < 2.0
 
 
+def test_short_fits_rank_the_starts_by_where_they_end_within_their_budget(monkeypatch):
+    """Each round fits the best starts briefly and ranks them by where they end; the next round
+    starts from those ends; the evaluations stay within the budget."""
+    import geocode.bench.span as span
+    from geocode.fit import shape_points
+
+    program = Program.load("table")
+    recipe = program.recipe()
+    target = shape_points(program, program.check({"pedestal": 1.0}), 2048)
+    options = span.all_options(recipe)
+    starts = [span.start_at(program.check(v), options, 0.0)
+              for v in ({}, {"pedestal": 1.0, "top_width": 0.5}, {"leg_style": 1.0})]
+    monkeypatch.setattr(span, "HALVING", ((2, 8), (1, 6)))
+    ranked, used = span.judged_by_short_fits(program, recipe, starts, target, budget=30, seed=0)
+    assert used <= 30 and len(ranked) == 1 and ranked[0].values["pedestal"] == 1.0
+    assert ranked[0].values["top_width"] != 0.5   # the end of a fit, not the start itself
+    ranked, used = span.judged_by_short_fits(program, recipe, starts, target, budget=2, seed=0)
+    assert used == 2 and len(ranked) == 2
+
+
 def test_switch_starts_put_each_other_value_of_one_discrete_parameter_first():
     from geocode.bench.span import switch_starts
 

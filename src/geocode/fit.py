@@ -109,6 +109,7 @@ class FitResult:
     start: int = 0             # index of the start the best shape came from
     curve: list[float] = field(default_factory=list)   # best distance after each evaluation
     found: list[tuple[dict[str, float], Pose]] = field(default_factory=list)  # each run's best
+    scores: list[float] = field(default_factory=list)   # each start's own distance, in order
 
 
 def trimmed_mean(squared: np.ndarray, trim: float) -> float:
@@ -349,7 +350,8 @@ def fit(program, recipe, starts: Sequence[Start], target: np.ndarray, budget: in
     runs_found = [(spaces[i].values(found[i][1]), found[i][2]) for i in runs if i in found]
     return FitResult(values=spaces[best_i].values(best_x), pose=found[best_i][2], before=before,
                      after=best, evaluations=len(curve), start=best_i,
-                     seconds=time.perf_counter() - started, curve=curve, found=runs_found)
+                     seconds=time.perf_counter() - started, curve=curve, found=runs_found,
+                     scores=[float(x) for x in scores])
 
 
 def snapped(recipe, values: Mapping[str, float]) -> dict[str, float]:

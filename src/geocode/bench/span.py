@@ -7,9 +7,10 @@ away is a start of its own, not a long step of the search), each at the turns ab
 axis at which `geocode reconstruct` reads a 3D input (every 45 degrees: a shape whose level
 turn ends on its diagonals stands half a quarter-turn off); then, at the turn of the best of
 them, also from POOL random shapes of the program's own sampler (an office chair is three
-switches from the defaults: a column, tent legs, a back on a post), every discrete parameter
-searched over all its values, CMA-ES restarted from the best starts; the up axis, scale and
-offset found as `geocode reconstruct` finds them. What
+switches from the defaults: a column, tent legs, a back on a post). The starts are judged by
+short fits (HALVING: the best of them fitted briefly, the best of those again), and CMA-ES runs
+from the FINALISTS with the rest of the budget, every discrete parameter searched over all its
+values; the up axis, scale and offset found as `geocode reconstruct` finds them. What
 distance remains (plain symmetric Chamfer, as `geocode bench real` scores it) is the part of
 the real shapes the program cannot make. Writes a page of each mesh beside the best shape.
 """
@@ -28,8 +29,12 @@ from geocode.errors import UserError
 from geocode.fit import Start, fit
 
 SPAN_BUDGET = 2000
-RESTARTS = 4
 POOL = 200   # random shapes of the program, each a start (one evaluation)
+# rounds of short fits that judge the starts: (starts kept, evaluations each); a start's first
+# evaluation ranks forms by chance, where its first sweeps (the discrete ones switch its form)
+# tell them apart (docs/wild.md, The programs' reach)
+HALVING = ((16, 40), (6, 100))
+FINALISTS = 2   # the long fit's CMA-ES runs, from the best of the last round
 
 
 def all_options(recipe) -> dict[str, list[float]]:
@@ -52,10 +57,11 @@ def switch_starts(defaults: dict[str, float], options: dict[str, list[float]], t
 
 def span_fit(program, recipe, target: np.ndarray, budget: int, seed: int):
     """The fit from the defaults and their one-switch forms at each of reconstruct's TURNS
-    turns (one evaluation each), then from the best of them with the other forms and POOL
-    random shapes at its turn: `budget` evaluations in all. A turn judged by the defaults
-    alone can be lost to a form they lack: a long coffee table's turn went to a diagonal,
-    from which its fit never came back (docs/wild.md, The programs' reach)."""
+    turns (one evaluation each), then, at the turn of the best of them, from the other forms
+    and POOL random shapes, judged by short fits (`judged_by_short_fits`), and a long one from
+    the best: `budget` evaluations in all. A turn judged by the defaults alone can be lost to a
+    form they lack: a long coffee table's turn went to a diagonal, from which its fit never
+    came back (docs/wild.md, The programs' reach)."""
     from geocode.tools.reconstruct import TURNS
 
     defaults, options = program.check({}), all_options(recipe)
@@ -67,11 +73,38 @@ def span_fit(program, recipe, target: np.ndarray, budget: int, seed: int):
     rng = np.random.default_rng(seed)
     pool = [start_at(program.random_values(rng), options, chosen.turn) for _ in range(POOL)]
     starts = [chosen, *(s for s in judged if s.turn == chosen.turn and s is not chosen), *pool]
+    left = budget - first.evaluations
+    ranked, used = judged_by_short_fits(program, recipe, starts, target, left - 1, seed)
     # a budget under the number of starts scores the first ones only (`fit`)
-    result = fit(program, recipe, starts, target, max(1, budget - first.evaluations), seed=seed,
-                 restarts=RESTARTS)
-    result.evaluations += first.evaluations
+    result = fit(program, recipe, ranked[:FINALISTS], target, max(1, left - used), seed=seed,
+                 restarts=FINALISTS)
+    result.evaluations += first.evaluations + used
     return result
+
+
+def judged_by_short_fits(program, recipe, starts: list[Start], target: np.ndarray, budget: int,
+                         seed: int) -> tuple[list[Start], int]:
+    """The starts ranked by their first evaluation, then each round of HALVING: the best `kept`
+    fitted for `each` evaluations, ranked by where they end and started again from there; at
+    most `budget` evaluations. Returns the ranking and the evaluations spent."""
+    if budget < 1:
+        return starts, 0
+    scored = fit(program, recipe, starts, target, min(len(starts), budget), seed=seed, restarts=0)
+    used = scored.evaluations
+    ranked = [starts[i] for i in np.argsort(scored.scores, kind="stable")]
+    options = all_options(recipe)
+    for kept, each in HALVING:
+        ends = []
+        for start in ranked[:kept]:
+            if used >= budget:
+                break
+            short = fit(program, recipe, [start], target, min(each, budget - used), seed=seed,
+                        restarts=1)
+            used += short.evaluations
+            ends.append((short.after, start_at(short.values, options, short.pose.turn)))
+        if ends:
+            ranked = [s for _, s in sorted(ends, key=lambda e: e[0])]
+    return ranked, used
 
 
 def bench_span(overrides: list[str], domain: str, folder: Path, budget: int | None = None,
