@@ -66,6 +66,29 @@ def test_a_folder_and_a_path_given_twice_are_refused(tmp):
     assert files(tmp) == ["file.txt"]
 
 
+def test_a_stop_while_a_temporary_file_is_made_leaves_none(tmp, monkeypatch):
+    """Ctrl-C right after the temporary file exists, before `reserve` returns: the stop waits
+    until the file is recorded, so that the block's end removes it."""
+    import signal
+    import tempfile
+
+    from geocode.errors import stop_signals_raise
+
+    made = tempfile.mkstemp
+
+    def made_then_stopped(*args, **kwargs):
+        result = made(*args, **kwargs)
+        signal.raise_signal(signal.SIGINT)
+        return result
+
+    monkeypatch.setattr(tempfile, "mkstemp", made_then_stopped)
+    before = files(tmp)
+    with pytest.raises(Interrupted), stop_signals_raise(), Outputs() as out:
+        out.reserve(tmp / "a.obj")
+        raise AssertionError("the stop did not come")
+    assert files(tmp) == before
+
+
 def test_an_existing_output_is_replaced_only_on_success(tmp):
     old = tmp / "a.obj"
     old.write_text("old")

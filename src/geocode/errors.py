@@ -9,6 +9,7 @@ with one line and exit code 128 + the signal's number (130, 143).
 from __future__ import annotations
 
 import signal
+import threading
 from contextlib import contextmanager
 
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
@@ -60,7 +61,11 @@ def signals_deferred():
     """Deliver SIGINT and SIGTERM only when the block ends, for C code that an exception
     raised half-way through would leave broken: Freestyle swallows a KeyboardInterrupt in its
     stroke shaders and 'finishes' a blank render; Blender's start-up, interrupted while it
-    registers add-ons, crashes the process at exit."""
+    registers add-ons, crashes the process at exit. Outside the main thread Python runs no
+    signal handler, so there is nothing to defer."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
     caught: list[int] = []
     previous = {sig: signal.signal(sig, lambda signum, _: caught.append(signum)) for sig in STOP_SIGNALS}
     try:

@@ -25,7 +25,7 @@ import os
 import tempfile
 from pathlib import Path
 
-from geocode.errors import UserError
+from geocode.errors import UserError, signals_deferred
 
 _UMASK = os.umask(0o022)
 os.umask(_UMASK)
@@ -48,13 +48,16 @@ class Outputs:
         if any(path.resolve() == other.resolve() for other in self._temporary):
             raise UserError(path, "is given for two outputs", "give each output its own path")
         self._make_folder(path)
-        try:
-            fd, name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-        except OSError as exc:
-            raise UserError(path, f"cannot be written ({exc.strerror})", FIX) from None
+        # a stop between making the file and recording it would leave it behind: `discard`
+        # removes only what is recorded
+        with signals_deferred():
+            try:
+                fd, name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+            except OSError as exc:
+                raise UserError(path, f"cannot be written ({exc.strerror})", FIX) from None
+            self._temporary[path] = Path(name)
         os.close(fd)
         os.chmod(name, 0o666 & ~_UMASK)      # mkstemp makes 0600; outputs are ordinary files
-        self._temporary[path] = Path(name)
         return Path(name)
 
     def _make_folder(self, path: Path) -> None:
@@ -70,14 +73,15 @@ class Outputs:
             self._made.append(folder)
 
     def commit(self) -> None:
-        """Rename every temporary file onto its output."""
-        for path, temporary in self._temporary.items():
-            try:
-                os.replace(temporary, path)
-            except OSError as exc:
-                self.discard()
-                raise UserError(path, f"cannot be written ({exc.strerror})",
-                                "free some space or choose another place") from None
+        """Rename every temporary file onto its output (a stop signal waits for the last)."""
+        with signals_deferred():
+            for path, temporary in self._temporary.items():
+                try:
+                    os.replace(temporary, path)
+                except OSError as exc:
+                    self.discard()
+                    raise UserError(path, f"cannot be written ({exc.strerror})",
+                                    "free some space or choose another place") from None
         self._temporary.clear()
         self._made.clear()
 
