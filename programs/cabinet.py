@@ -1,4 +1,4 @@
-"""The cabinet program (37 parameters: 11 discrete, 26 continuous): the paper's example of the
+"""The cabinet program (38 parameters: 11 discrete, 27 continuous): the paper's example of the
 blocks carried to a new domain, a cabinet whose drawers follow the frame's profile and whose
 handles stay attached (its "structural integrity discussion"), grown to the common real forms:
 chests of drawers, cupboards, bookcases and open shelving, night stands, low wide TV cabinets
@@ -14,6 +14,8 @@ rest for every parameter combination):
 - body: below the open rows (all of it when there are none) a Loft between the two sides,
   swept back by the depth (StyleSolidify); around the open rows the two side boards, a top
   rail and a back wall, Lofts between a side and its inner side, given thickness the same way;
+  the open rows' boards, their shelves and the top board may stand back on the closed body
+  (`open_depth`: a hutch);
 - fronts: built in a repeat zone (one pass per row, a nested one per column). Each front is a
   Loft between the inner sides over its row's share of their length, so its outer edges
   follow the profile at every height; it stands out of the body by `front_thickness` and is
@@ -86,6 +88,7 @@ def _parameters(g: Graph) -> dict:
     add("door_columns", "int", 2, 1, 2, "doors per row")
     add("open_rows", "int", 0, 0, 2, "rows of open shelves (at the top)")
     add("shelf_count", "int", 1, 0, 3, "shelves across an open row")
+    add("open_depth", "float", 1.0, 0.4, 1.0, "depth of the open rows / the body's (a hutch)")
     add("door_height", "float", 2.0, 1.0, 2.5, "height of a door or open row / a drawer row")
     add("gap", "float", 0.006, 0.002, 0.015, "gap between neighbouring fronts")
     add("front_thickness", "float", 0.02, 0.01, 0.035, "how far the fronts stand out")
@@ -154,6 +157,8 @@ class _Cabinet:
             "door_columns": g.when(has_doors, p["door_columns"], 1),
             "door_height": g.when(has_doors | self.has_open, p["door_height"], 1.0),
             "shelf_count": g.when(self.has_open, p["shelf_count"], 0),
+            # the open rows stand this far back from the closed body's front
+            "setback": g.when(self.has_open, (1.0 - p["open_depth"]) * p["depth"], 0.0),
             "front_style": p["front_style"], "panel_border": p["panel_border"]}
         tall = p["door_rows"] * self.choices["door_height"]
         self.rows = p["drawer_rows"] + p["door_rows"] + p["open_rows"]
@@ -187,15 +192,19 @@ def _body(c: _Cabinet):
     rows the sides, the top rail and a back wall, all `frame_width` thick (the shelves are
     built with their rows)."""
     g, p = c.g, c.p
-    depth, board = p["depth"], p["frame_width"]
-    closed = _band(c, c.left, c.right, 0.0, g.when(c.has_open, c.open_start, 1.0), depth)
+    board, setback = p["frame_width"], c.choices["setback"]
+    closed = _band(c, c.left, c.right, 0.0, g.when(c.has_open, c.open_start, 1.0), p["depth"])
+    # the open rows' boards, `open_depth` of the body deep, their fronts set back on it
+    depth = p["depth"] - setback
     top_rail = 1.0 - c.along(board)
     shell = g.join([
-        _band(c, c.left, c.inner_left, c.open_start, 1.0, depth, rows=OPEN_RESOLUTION),
-        _band(c, c.inner_right, c.right, c.open_start, 1.0, depth, rows=OPEN_RESOLUTION),
-        _band(c, c.inner_left, c.inner_right, top_rail, 1.0, depth, rows=1),
+        _band(c, c.left, c.inner_left, c.open_start, 1.0, depth, back=setback,
+              rows=OPEN_RESOLUTION),
+        _band(c, c.inner_right, c.right, c.open_start, 1.0, depth, back=setback,
+              rows=OPEN_RESOLUTION),
+        _band(c, c.inner_left, c.inner_right, top_rail, 1.0, depth, back=setback, rows=1),
         _band(c, c.inner_left, c.inner_right, c.open_start, top_rail, board + SINK,
-              back=depth - board, rows=OPEN_RESOLUTION),
+              back=p["depth"] - board, rows=OPEN_RESOLUTION),
     ])
     return g.label(g.join([closed, g.when(c.has_open, shell)]), BODY)
 
@@ -305,8 +314,10 @@ class _Row:
         zone = Repeat(g, count + g.when(self.is_last, 0, 1), geometry=None)
         at = g.lerp(self.start, self.end, (zone.iteration + 1.0) / (count + 1.0))
         half = c.along(0.5 * p["frame_width"])
+        setback = c.choices["setback"]
         board = _band(c, c.inner_left, c.inner_right, at - half, at + half,
-                      p["depth"] - p["frame_width"] + SINK, inset=-SINK, rows=1)
+                      p["depth"] - setback - p["frame_width"] + SINK, inset=-SINK,
+                      back=setback, rows=1)
         boards = zone.close(geometry=g.join([zone["geometry"], board]))["geometry"]
         return g.label(boards, BODY)
 
@@ -382,12 +393,13 @@ def _fronts(c: _Cabinet):
 
 def _top_board(c: _Cabinet):
     g, p = c.g, c.p
-    overhang = p["top_overhang"]
+    overhang, setback = p["top_overhang"], c.choices["setback"]
+    # over the body's top: the open rows', set back on a hutch
     board = seat(g, width=p["width"] * p["top_width"] + 2.0 * overhang,
-                 depth=p["depth"] + overhang, roundness=0.0,
+                 depth=p["depth"] - setback + overhang, roundness=0.0,
                  top=c.top + p["top_thickness"] - SINK, thickness=p["top_thickness"],
                  bevel=p["top_bevel"], label=TOP)["Mesh"]
-    moved = g.transform(board, translation=g.vec(0, -0.5 * overhang, 0))
+    moved = g.transform(board, translation=g.vec(0, 0.5 * (setback - overhang), 0))
     return g.when(p["top_board"], moved)
 
 

@@ -1,4 +1,4 @@
-"""The chair program (72 parameters: 18 discrete, 54 continuous).
+"""The chair program (74 parameters: 19 discrete, 55 continuous).
 
 Layout: x = width, y = depth (the backrest at +y), z = up; a 0.5 x 0.5 seat before the
 overall scale. Structure (every part touches the rest for every parameter combination):
@@ -9,7 +9,8 @@ overall scale. Structure (every part touches the rest for every parameter combin
 - legs: four MeshLegs from under the seat corners to z = 0, optionally on a sled base
   (a MeshStraightFrame runner on the floor through each side's feet, the two optionally
   joined at the back by a tube across) and optionally joined by stretchers
-  (MeshStraightFrame bars, a box or an H, their ends sampled on the legs' own axes), or a
+  (MeshStraightFrame bars, a box or an H, their ends sampled on the legs' own axes) and an
+  apron (MeshStraightFrame rails from leg top to leg top under the seat), or a
   monoleg (a column with StyleBezierSegment: a pedestal, or a slimmer column on tent legs:
   radial MeshQuadraticCartesian, optionally on caster wheels, MeshStraightFrame);
 - backrest: two frames (MeshQuadraticCartesianAlignedXYFrame, mirrored in x) rising from
@@ -58,7 +59,7 @@ from geocode.nodes import (
 # labels (segmentation)
 (SEAT, CUSHION, LEGS, BACK_FRAME, CROSS_RAILS, VERTICAL_RAILS, TOP_RAIL, BACK_PANEL,
  ARMRESTS, ARM_SUPPORTS, ARM_PADS, MONOLEG, TENT_LEGS, CASTERS, SIDE_PANELS,
- STRETCHERS, BACK_POST) = range(1, 18)
+ STRETCHERS, BACK_POST, APRON) = range(1, 19)
 
 SEAT_SIZE = 0.5          # width and depth of the seat before the overall scale
 LEG_INSET = 1.2          # legs sit this many radii inside the seat's corner
@@ -68,6 +69,7 @@ TENT_COLUMN = 0.35       # a column on tent legs: this share of a pedestal's pro
 CASTER_LIFT = 1.8        # tent legs' ends above the floor, in caster radii (sunk in the wheel)
 CASTER_WIDTH = 0.8       # width of a caster wheel, in radii
 STRETCHER_SHARE = 0.8    # a stretcher's width, in leg thicknesses (a leg is 2 wide, tapered 1)
+APRON_SHARE = 0.6        # an apron's thickness, in leg thicknesses (within the legs' faces)
 POST_WIDTH = 2.0         # the back post's width and its yoke's height, in frame widths
 POST_DEPTH = 0.8         # the post's depth, in frame depths (within the yoke's faces)
 PAD_SINK = 0.3           # share of an armrest pad sunk into its armrest
@@ -100,6 +102,8 @@ def _parameters(g: Graph) -> dict:
     add("sled_joined", "bool", False, 0, 1, "a tube across joining the runners at the back")
     add("stretchers", "int", 0, 0, 2, "bars between the legs: 0 none, 1 a box, 2 an H")
     add("stretcher_height", "float", 0.3, 0.15, 0.5, "stretchers' height (share of the legs)")
+    add("apron", "bool", False, 0, 1, "rails under the seat from leg to leg (a wooden chair)")
+    add("apron_height", "float", 0.06, 0.03, 0.12, "depth of the apron below the seat")
     add("monoleg_top_radius", "float", 0.06, 0.03, 0.12, "monoleg Bezier profile: top")
     add("monoleg_top_handle", "float", 0.06, 0.03, 0.12, "monoleg Bezier profile: upper handle")
     add("monoleg_bottom_handle", "float", 0.1, 0.05, 0.2, "monoleg Bezier profile: lower handle")
@@ -249,8 +253,9 @@ def _four_legs(c: _Chair):
                         roundness=p["leg_bevel"], label=LEGS) for k in ("front", "back")}
     runner = g.when(p["sled_base"], _sled(c, feet["front"], feet["back"]))
     stretchers = _stretchers(c, legs["front"]["Curve"], legs["back"]["Curve"])
+    apron = g.when(p["apron"], _apron(c, tops["front"], tops["back"]))
     return g.when(p["monoleg"], None, g.join([legs["front"]["Mesh"], legs["back"]["Mesh"],
-                                              runner, stretchers]))
+                                              runner, stretchers, apron]))
 
 
 def _sled(c: _Chair, front, back):
@@ -269,6 +274,25 @@ def _sled(c: _Chair, front, back):
                             depth=radius * 2.0, roundness=p["leg_bevel"],
                             axis=(0.0, 1.0, 0.0), label=LEGS)["Mesh"]
     return g.join([runner, g.when(p["sled_joined"], across)])
+
+
+def _apron(c: _Chair, front, back):
+    """The right side rail from the front leg's top to the back one's and the right halves
+    of the rails across the front and the back (the mirror adds the rest): from inside the
+    slab down to `apron_height` under the seat, on the legs' top axes, `APRON_SHARE` leg
+    thicknesses thick."""
+    g, p = c.g, c.p
+    bottom = p["seat_height"] - p["seat_thickness"] - p["apron_height"]
+    z = (c.inside + bottom) * 0.5
+    height, thickness = c.inside - bottom, p["leg_thickness"] * APRON_SHARE
+
+    def rail(start, end):   # upright: `height` along z
+        return straight_frame(g, start=start, end=end, width=height, depth=thickness,
+                              roundness=0.0, axis=(0.0, 0.0, 1.0), label=APRON)["Mesh"]
+
+    side = rail(g.vec(front.x, front.y, z), g.vec(back.x, back.y, z))
+    across = [rail(g.vec(0.0, end.y, z), g.vec(end.x, end.y, z)) for end in (front, back)]
+    return g.join([side, *across])
 
 
 def _stretchers(c: _Chair, front_axis, back_axis):

@@ -52,8 +52,8 @@ def _body_half_width(mesh, label, z):
 
 def test_parameter_space(cabinet):
     kinds = [p.kind for p in cabinet.parameters]
-    assert len(cabinet.parameters) == 37
-    assert kinds.count("float") == 26 and len(kinds) - kinds.count("float") == 11
+    assert len(cabinet.parameters) == 38
+    assert kinds.count("float") == 27 and len(kinds) - kinds.count("float") == 11
     for p in cabinet.parameters:
         assert p.description and p.min <= p.default <= p.max, p.name
 
@@ -72,6 +72,7 @@ def test_visibility_rules_are_inferred_from_the_switches(cabinet):
     assert rules["base_height"] == "base_style == 1 or base_style == 2"
     assert rules["door_height"] == "door_rows > 0 or open_rows > 0"
     assert rules["shelf_count"] == "open_rows > 0"
+    assert rules["open_depth"] == "open_rows > 0"
     assert rules["panel_border"] == "front_style > 0"
     assert rules["front_thickness"] is None and rules["front_style"] is None
     assert rules["drawer_columns"] == "drawer_rows > 0"
@@ -86,7 +87,7 @@ def test_visibility_rules_are_inferred_from_the_switches(cabinet):
     ({"base_style": 1}, {"leg_splay": 0.05, "leg_thickness": 0.04}),
     ({"door_rows": 0}, {"door_height": 2.5, "door_columns": 1}),
     ({"open_drawer": 0}, {"drawer_open": 0.55}),
-    ({"open_rows": 0}, {"shelf_count": 3}),
+    ({"open_rows": 0}, {"shelf_count": 3, "open_depth": 0.4}),
     ({"front_style": 0}, {"panel_border": 0.08}),
 ])
 def test_invisible_parameters_leave_the_mesh_unchanged(cabinet, hidden, change):
@@ -250,7 +251,8 @@ def test_every_parameter_changes_the_mesh_somewhere_in_its_range(cabinet):
                 "leg_roundness": {"base_style": 2}, "plinth_inset": {"base_style": 1},
                 "base_height": {"base_style": 1}, "top_overhang": {"top_board": 1},
                 "top_thickness": {"top_board": 1}, "top_bevel": {"top_board": 1},
-                "shelf_count": {"open_rows": 1}, "panel_border": {"front_style": 1}}
+                "shelf_count": {"open_rows": 1}, "open_depth": {"open_rows": 1},
+                "panel_border": {"front_style": 1}}
     for p in cabinet.parameters:
         values = {**base, **settings.get(p.name, {})}
         middle = (p.min + p.max) / 2 if p.kind == "float" else float(round((p.min + p.max) / 2))
@@ -309,6 +311,28 @@ def test_shelves_are_boards_across_the_open_rows(cabinet, label):
                              "shelf_count": 1, "top_board": 0})
     middle = mesh.vertices[:, 2].max() / 2
     assert _first_hit_y(mesh, 0.1, middle) == pytest.approx(-0.225, abs=1e-4)
+
+
+def test_a_hutch_sets_its_open_rows_and_top_back_on_the_closed_body(cabinet, label):
+    values = {**OPEN, "drawer_rows": 0, "open_rows": 1, "shelf_count": 1, "top_board": 1,
+              "top_overhang": 0.0}
+    full = cabinet.evaluate(values)
+    hutch = cabinet.evaluate({**values, "open_depth": 0.6})
+    height = hutch.vertices[:, 2].max()
+    # the open row over the door, its shelf the first thing seen at the front (0.45 deep)
+    shelf = next(z for z in np.linspace(0.5, 0.9, 41) * height
+                 if _first_hit_y(full, 0.1, z) == pytest.approx(-0.225, abs=1e-4))
+    door, setback = 0.2, 0.4 * 0.45
+    assert _first_hit_y(hutch, 0.1, shelf) == pytest.approx(-0.225 + setback, abs=1e-4)
+    assert _first_hit_y(hutch, 0.1, door) == pytest.approx(_first_hit_y(full, 0.1, door))
+    # the sides of the open row and the top board stand back by as much
+    for mesh, back in ((full, 0.0), (hutch, setback)):
+        sides = _only(mesh, label.BODY).vertices
+        upper = sides[sides[:, 2] > 0.5 * height + 0.02]
+        assert upper[:, 1].min() == pytest.approx(-0.225 + back, abs=1e-4)
+        assert _only(mesh, label.TOP).vertices[:, 1].min() == pytest.approx(-0.225 + back,
+                                                                            abs=1e-4)
+    assert loose_parts(hutch) == 0
 
 
 @pytest.mark.parametrize("style, recess", [(1, 0.5 * 0.03), (2, 0.03 - 0.004)])

@@ -26,8 +26,8 @@ def _vertices(mesh, *labels) -> np.ndarray:
 def test_parameters_cover_the_chair(program):
     names = {p.name for p in program.parameters}
     kinds = [p.kind for p in program.parameters]
-    assert len(names) == 72
-    assert kinds.count("float") == 54 and len(kinds) - kinds.count("float") == 18
+    assert len(names) == 74
+    assert kinds.count("float") == 55 and len(kinds) - kinds.count("float") == 19
     expected = {
         "scale_x", "scale_y", "scale_z", "seat_height", "seat_roundness", "cushion",
         "cushion_fill", "cross_rail_count", "cross_rail_thickness_y", "cross_rail_thickness_z",
@@ -41,7 +41,7 @@ def test_parameters_cover_the_chair(program):
         "armrest_back_height", "armrest_front_height", "armrest_mid", "armrest_edge",
         "rail_bevel", "sled_base", "sled_joined", "casters", "caster_size",
         "side_panels", "side_panel_drop", "stretchers", "stretcher_height",
-        "side_panel_thickness", "back_post", "back_post_gap",
+        "side_panel_thickness", "back_post", "back_post_gap", "apron", "apron_height",
     }
     assert expected <= names, expected - names
     for p in program.parameters:
@@ -70,6 +70,8 @@ def test_visibility_rules_are_inferred_from_the_switches(program):
     assert rules["stretcher_height"] == ("not monoleg and stretchers == 1 "
                                          "or not monoleg and stretchers == 2")
     assert rules["caster_size"] == "casters and monoleg and tent_legs"
+    assert rules["apron"] == "not monoleg"
+    assert rules["apron_height"] == "apron and not monoleg"
 
 
 @pytest.mark.parametrize("hidden, change", [
@@ -86,6 +88,8 @@ def test_visibility_rules_are_inferred_from_the_switches(program):
     ({"back_post": 0}, {"back_post_gap": 0.2}),
     ({"monoleg": 1}, {"stretchers": 2}),
     ({"stretchers": 0}, {"stretcher_height": 0.5}),
+    ({"monoleg": 1}, {"apron": 1}),
+    ({"apron": 0}, {"apron_height": 0.12}),
 ])
 def test_invisible_parameters_leave_the_mesh_unchanged(program, hidden, change):
     before = program.evaluate(hidden)
@@ -322,6 +326,21 @@ def test_stretcher_height_moves_the_bars_up_the_legs(program, label):
     # the default legs (0.43 long, nearly vertical): 0.35 x 0.43 higher
     assert high[:, 2].mean() - low[:, 2].mean() == pytest.approx(0.35 * 0.43, abs=0.01)
     assert low[:, 2].min() > 0.03
+
+
+def test_an_apron_joins_the_legs_under_the_seat_as_deep_as_asked(program, label):
+    seat = {"seat_height": 0.45, "seat_thickness": 0.05}
+    for depth in (0.03, 0.12):
+        mesh = program.evaluate({**seat, "apron": 1, "apron_height": depth})
+        rails = _vertices(mesh, label.APRON)
+        # grounding lifts the chair by the slanted feet's rim dip (a few mm)
+        lift = _vertices(mesh, label.SEAT)[:, 2].max() - 0.45
+        assert rails[:, 2].min() - lift == pytest.approx(0.45 - 0.05 - depth, abs=1e-3)
+        assert rails[:, 2].max() - lift < 0.45
+        # rails on all four sides: one ring of the legs' tops, a single piece with them
+        assert np.ptp(rails[:, 0]) > 0.3 and np.ptp(rails[:, 1]) > 0.3
+        assert loose_parts(part_mesh(mesh, label.LEGS, label.APRON)) == 0
+    assert label.APRON not in program.evaluate({"apron": 0}).metadata["part"]
 
 
 def test_casters_lift_the_tent_legs_off_the_floor(program, label):
