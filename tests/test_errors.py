@@ -69,6 +69,8 @@ CONFIG_CASES = {
     "domain epochs zero": (override("train.domain_epochs={vase: 0}"), ["train.domain_epochs", "whole number >= 1"]),
     "sketch fit branches unknown domain": (override("+eval.sketch_fit_branches.nosuch=3"),
                                            ["eval.sketch_fit_branches.nosuch", "no such domain", "vase"]),
+    "sketch fit budget unknown domain": (override("+eval.sketch_fit_domain_budget.nosuch=3"),
+                                         ["eval.sketch_fit_domain_budget.nosuch", "no such domain", "vase"]),
     "domain variations zero": (override("data.domain_variations={vase: {train: 0}}"),
                                ["data.domain_variations", "whole number >= 1"]),
     "domain variations new key": (override("data.domain_variations.table.train=3"),

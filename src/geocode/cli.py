@@ -163,7 +163,8 @@ def parser() -> argparse.ArgumentParser:
     c.add_argument("--checkpoint", type=Path, help="default: the domain's joint model of the run (paths.runs)")
     c.add_argument("--refine", type=at_most(5000, "program evaluations", "the fit's curve flattens well "
                                           "before (docs/wild.md)", low=0),
-                   help="program evaluations of the fit (default eval.reconstruct_budget; drawings: 800)")
+                   help="program evaluations of the fit (default eval.reconstruct_budget; a drawing's: "
+                        "the domain's eval.sketch_fit_budget)")
     c.add_argument("--up", default="auto", help="the input's up axis: auto (found), or x, y, z, -x, -y, -z")
     c.add_argument("--candidates", type=at_most(8, "answers", "more are rarely distinct", low=1), default=1,
                    help="write the K best distinct fitted programs (ranked on the page)")
@@ -209,7 +210,7 @@ def parser() -> argparse.ArgumentParser:
     c.add_argument("--budget", type=at_most(5000, "program evaluations", "the fit's curve flattens well "
                                           "before (docs/wild.md)", low=0),
                    help="real, turns: the fit's evaluations (default eval.reconstruct_budget); span: 2000; "
-                        "fit --modality sketch: the drawing fit's (default: reconstruct's for a drawing)")
+                        "fit --modality sketch: the drawing fit's (default: the domain's eval.sketch_fit_budget)")
     c.add_argument("--n", type=at_most(10000, "shapes", "a rate settles within a few hundred"),
                    help="shapes (program: 200, fit: 20 test shapes, turns: 10)")
     c.add_argument("--clouds", type=at_most(100000, "clouds", "ten paper-scale epochs; the time grows with it"),

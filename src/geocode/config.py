@@ -96,7 +96,8 @@ def _check_known(cfg: DictConfig) -> None:
                               f"use one of {', '.join(known) or 'none (add a program and its recipe)'}")
     # the profiles name the project's domains; a programs folder of one's own may lack them
     shipped = {p.stem for p in (repo_root() / "programs").glob("*.yaml")}
-    for key in ("data.domain_variations", "train.domain_epochs", "eval.sketch_fit_branches"):
+    for key in ("data.domain_variations", "train.domain_epochs", "eval.sketch_fit_branches",
+                "eval.sketch_fit_domain_budget"):
         for name in OmegaConf.select(cfg, key) or {}:
             if name not in {*known, *shipped}:
                 raise ConfigError(f"{key}.{name}", "no such domain", f"use one of {', '.join(known) or 'none'}")
@@ -190,6 +191,12 @@ def split_variations(cfg: DictConfig, domain: str) -> dict[str, int]:
     """Shapes per parameter class of each split: data.variations, with the domain's entries
     in data.domain_variations in their place (null: none)."""
     return {**cfg.data.variations, **(cfg.data.domain_variations or {}).get(domain, {})}
+
+
+def sketch_fit_budget(cfg: DictConfig, domain: str) -> int:
+    """The domain's evaluations of a drawing's fit (eval.sketch_fit_domain_budget, else
+    eval.sketch_fit_budget)."""
+    return int((cfg.eval.sketch_fit_domain_budget or {}).get(domain, cfg.eval.sketch_fit_budget))
 
 
 def sketch_fit_branches(cfg: DictConfig, domain: str) -> int:

@@ -240,8 +240,10 @@ class Eval(Group):
     ablation_domains: each(Name) = key("domains whose ablations are trained (the paper: the chair)")
     fit_budget: whole(0) = key("program evaluations of each test shape's fit (eval.fit)")
     reconstruct_budget: whole(0) = key("program evaluations of the fit of `geocode reconstruct` (--refine)")
-    sketch_fit_budget: whole(0) = key("program evaluations of each test sketch's fit (eval.fit, sketch "
-                                      "conditions)")
+    sketch_fit_budget: whole(0) = key("program evaluations of a drawing's fit: `geocode reconstruct` on a "
+                                      "drawing, `bench fit --modality sketch`, eval.fit's sketch conditions")
+    sketch_fit_domain_budget: Annotated[dict[Name, whole(0)] | None, Expect("null or a mapping {<domain>: a whole number >= 0}")] = key(
+        "per-domain sketch_fit_budget, {<domain>: N}, where a domain's fit gains from more (docs/wild.md)")
     sketch_fit_branches: Annotated[dict[Name, whole(1)] | None, Expect("null or a mapping {<domain>: a whole number >= 1}")] = key(
         "per-domain searches of a drawing's fit, {<domain>: N}: one for each of the network's N likeliest options "
         "of its least sure discrete choice, the budget shared (docs/wild.md); other domains 1")

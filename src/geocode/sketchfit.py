@@ -89,7 +89,6 @@ BRANCH_BUDGET = 250      # evaluations a branch needs at least (the vase's curve
 VIEW_MARGIN = 1.0        # px by which a start from another view must beat the trained views'
                          # best: the network answers as if from those views, and a table drawn
                          # from az 55 is also a table of swapped width and depth from az -35
-BUDGET = 800             # default evaluations: chair test sketches, Chamfer 0.54x of the network at 400, 0.43x at 800
 SIGMA = 0.08             # CMA-ES's initial step on a parameter, in units of its range
 CAMERA_SIGMA = (0.05, 0.05, 0.1, 0.05, 0.05, 0.05)   # ... on the camera's coordinates
 STEPS = (0.15, 0.075, 0.04) # the best start's continuous parameters one at a time first, by
@@ -222,7 +221,7 @@ def camera_starts(shapes: Shapes, values: dict, target: np.ndarray,
 
 
 def fit_drawing(program, recipe, starts: Sequence[Start], drawing: np.ndarray,
-                budget: int = BUDGET, seed: int = 0,
+                budget: int, seed: int = 0,
                 guesses: Sequence[tuple[float, float]] = CAMERA_GUESSES, helpers: int = 0,
                 read=None, branches: int = 1) -> DrawingFit:
     """Search at most `budget` program evaluations for the parameters and camera whose line

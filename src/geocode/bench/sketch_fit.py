@@ -12,22 +12,24 @@ import numpy as np
 
 from geocode import paths
 from geocode.checkpoints import default_checkpoint, load_model, ranked_prediction, reader
-from geocode.config import sketch_fit_branches
+from geocode.config import sketch_fit_branches, sketch_fit_budget
 from geocode.fit import Start
 from geocode.meshio import read_obj
 from geocode.metrics import chamfer_meshes
 from geocode.program import Program
-from geocode.sketchfit import BUDGET, fit_drawing, mean_curve
+from geocode.sketchfit import fit_drawing, mean_curve
 from geocode.steps.evaluate import test_ids
 from geocode.steps.train_data import load_sketch
 
 
 def bench_sketch_fit(cfg, domain: str, n: int = 10, camera: str = "trained",
-                     budget: int = BUDGET) -> dict:
+                     budget: int | None = None) -> dict:
     """The domain's trained joint model's predictions on test sketches (`camera` "trained":
     shape i from the i-th trained camera in turn; "novel": the untrained one), fitted to the
     sketch, measured against the ground truth by `metrics.chamfer_meshes`: before and after,
-    and the median seconds per drawing (network, fit and both rebuilds included)."""
+    and the median seconds per drawing (network, fit and both rebuilds included). budget: the
+    fit's evaluations (default: the domain's eval.sketch_fit_budget)."""
+    budget = sketch_fit_budget(cfg, domain) if budget is None else budget
     program = Program.load(domain)
     recipe = program.recipe()
     checkpoint = default_checkpoint(cfg, domain)

@@ -21,7 +21,7 @@ from omegaconf import DictConfig
 from geocode import paths
 from geocode.card import write_card
 from geocode.conditions import FITS, MODALITY_NAMES, SKETCH_FITTED, conditions, robustness, unfitted
-from geocode.config import NAME, sketch_fit_branches
+from geocode.config import NAME, sketch_fit_branches, sketch_fit_budget
 from geocode.errors import UserError
 from geocode.meshio import (
     REDO_EXPORT,
@@ -214,14 +214,14 @@ def fit_prediction(cfg: DictConfig, domain: str, program, recipe, row: dict, val
                    read=None) -> tuple[dict, dict]:
     """(fitted values, the fit's record) of one prediction of a fitted condition: a cloud's
     by `geocode.fit` (eval.fit_budget), a sketch's by `geocode.sketchfit` (its distances in
-    px; eval.sketch_fit_budget; `read`: the model's `checkpoints.reader`)."""
+    px; `config.sketch_fit_budget`; `read`: the model's `checkpoints.reader`)."""
     from geocode.fit import Start, fit
     from geocode.sketchfit import fit_drawing
 
     kind, target = model_input(cfg, domain, unfitted(row), row["id"])
     start = [Start(values, json.loads(row[OPTIONS]))]
     if kind == "sketch":
-        result = fit_drawing(program, recipe, start, target, cfg.eval.sketch_fit_budget, seed=cfg.seed, read=read,
+        result = fit_drawing(program, recipe, start, target, sketch_fit_budget(cfg, domain), seed=cfg.seed, read=read,
                              branches=sketch_fit_branches(cfg, domain))
     else:   # test clouds sit in the program's own frame, so the pose is not searched
         result = fit(program, recipe, start, target, cfg.eval.fit_budget, seed=cfg.seed, pose=False)

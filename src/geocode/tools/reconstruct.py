@@ -193,15 +193,15 @@ class Reconstructor:
         """The network's answer to a drawing, then (unless --refine 0) `sketchfit`'s search of
         the parameters and the camera; both scored by Freestyle's drawing of them."""
         from geocode.checkpoints import ranked_prediction, reader
-        from geocode.config import sketch_fit_branches
+        from geocode.config import sketch_fit_branches, sketch_fit_budget
         from geocode.linedraw import drawing_distance
-        from geocode.sketchfit import BUDGET, fit_drawing, freestyle_drawing
+        from geocode.sketchfit import fit_drawing, freestyle_drawing
 
         sketch = sketch_from_image(path)
         values, options = ranked_prediction(self.model, self.recipe, "sketch", sketch, self.cfg.eval.decode)
         network = Answer(self.program.check(values), Pose(), math.nan)
         result = Reconstruction(path, "drawing", [network], drawing=sketch)
-        budget = BUDGET if self.refine_given is None else self.refine_given
+        budget = sketch_fit_budget(self.cfg, self.domain) if self.refine_given is None else self.refine_given
         if budget == 0:
             return result
         found = fit_drawing(self.program, self.recipe, [Start(values, options)], sketch, budget,
