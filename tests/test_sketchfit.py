@@ -32,6 +32,7 @@ from geocode.sketchfit import (
     framed,
     held_options,
     mean_curve,
+    near_trained_view,
 )
 
 DOMAIN = "table"
@@ -177,6 +178,14 @@ def test_fit_keeps_the_trained_view_where_a_quarter_turn_draws_nearly_as_well():
     assert result.camera.azimuth == pytest.approx(55.0, abs=5)
     assert result.values["width"] > result.values["depth"]
     assert result.values["width"] == pytest.approx(1.0, abs=0.06)
+
+
+def test_only_views_far_from_the_trained_ones_start_with_the_margin():
+    """Views beside a trained one (the test sets' third camera is 20 degrees off) compete
+    freely; a quarter-turn away, from below or behind, they carry VIEW_MARGIN."""
+    assert all(near_trained_view(View(az, 30.0)) for az in (15.0, 20.0, 35.0, 45.0, 55.0, 70.0))
+    assert not any(near_trained_view(View(az, el)) for az, el in
+                   ((0.0, 30.0), (-35.0, 30.0), (90.0, 30.0), (215.0, 30.0), (35.0, 10.0)))
 
 
 def biased_reader(view: View, bias: float):

@@ -13,11 +13,13 @@ The starts are the network's answer seen from each of CAMERA_GUESSES (the datase
 trained views and their mirror images; frontal, side and back views from low down), each
 framed twice: as the dataset frames a unit-sphere shape (scale 1, no shift) and with its
 strokes' bounding box on the drawing's (as `reconstruct.sketch_from_image` frames a user's
-drawing). Every start is scored first, a start from a view other than the dataset's trained
-ones counting VIEW_MARGIN px more: the network answers as if the drawing came from those, and
-a view a quarter-turn away draws a shape of swapped width and depth alike, which the search
-cannot tell apart from the drawing but the program's frame can (on the table test sketches
-this took the fit from 0.92x to 0.43x of the network's distance). Given the network's reader
+drawing). Every start is scored first, a start from a view farther than NEAR_VIEW degrees of
+azimuth from the dataset's trained ones counting VIEW_MARGIN px more: the network answers as
+if the drawing came from those, and a view a quarter-turn away draws a shape of swapped width
+and depth alike, which the search cannot tell apart from the drawing but the program's frame
+can (on the table test sketches this took the fit from 0.92x to 0.43x of the network's
+distance). A view that near draws no such twin, and a drawing from beside the trained views
+(the test sets' third camera, 20 degrees off) starts best there (docs/wild.md). Given the network's reader
 (`checkpoints.reader`), the best start is first corrected by the network itself
 (`drawing_feedback`, FEEDBACK rounds): its reading of our drawing of the answer is compared
 with its reading of the input, and the difference moves the continuous parameters, which
@@ -89,6 +91,7 @@ BRANCH_BUDGET = 250      # evaluations a branch needs at least (the vase's curve
 VIEW_MARGIN = 1.0        # px by which a start from another view must beat the trained views'
                          # best: the network answers as if from those views, and a table drawn
                          # from az 55 is also a table of swapped width and depth from az -35
+NEAR_VIEW = 20.0         # degrees of azimuth: views this near a trained one start without it
 SIGMA = 0.08             # CMA-ES's initial step on a parameter, in units of its range
 CAMERA_SIGMA = (0.05, 0.05, 0.1, 0.05, 0.05, 0.05)   # ... on the camera's coordinates
 STEPS = (0.15, 0.075, 0.04) # the best start's continuous parameters one at a time first, by
@@ -220,6 +223,13 @@ def camera_starts(shapes: Shapes, values: dict, target: np.ndarray,
     return views
 
 
+def near_trained_view(view: View) -> bool:
+    """Whether a view lies at a trained view's elevation within NEAR_VIEW degrees of its
+    azimuth (so near, it draws no twin of swapped width and depth)."""
+    return any(view.elevation == el and abs((view.azimuth - az + 180.0) % 360.0 - 180.0) <= NEAR_VIEW
+               for az, el in TRAINED_VIEWS)
+
+
 def fit_drawing(program, recipe, starts: Sequence[Start], drawing: np.ndarray,
                 budget: int, seed: int = 0,
                 guesses: Sequence[tuple[float, float]] = CAMERA_GUESSES, helpers: int = 0,
@@ -289,8 +299,7 @@ def search(program, recipe, starts: Sequence[Start], drawing: np.ndarray, drawer
 
     x0s = [np.concatenate([space.x0(), cams.x0()]) for space, cams in spaces]
     scores = evaluate(list(enumerate(x0s[:max(1, budget)])))
-    handicap = [0.0 if (cams.start.azimuth, cams.start.elevation) in TRAINED_VIEWS else VIEW_MARGIN
-                for _, cams in spaces[:len(scores)]]
+    handicap = [0.0 if near_trained_view(cams.start) else VIEW_MARGIN for _, cams in spaces[:len(scores)]]
     order = np.argsort(np.add(scores, handicap), kind="stable")
     before = float(scores[order[0]])
     if read is not None and math.isfinite(before):   # the network corrects its own reading
