@@ -64,6 +64,7 @@ def test_framing_puts_the_strokes_on_the_targets_box():
 def test_mean_curve_holds_each_fits_last_value():
     assert mean_curve([[3.0, 2.0, 1.0], [4.0]], points=(1, 3)) == {1: 3.5, 3: 2.5}
     assert mean_curve([[math.inf, 2.0], [4.0, 3.0]], points=(1, 2)) == {1: None, 2: 2.5}   # no Infinity in JSON
+    assert list(mean_curve([[1.0] * 1600]))[-2:] == [1200, 1600]   # a 1600-evaluation fit's tail
 
 
 class Boxes:

@@ -365,8 +365,9 @@ def drawing_feedback(read, shapes: Shapes, distance: DrawingDistance, recipe, dr
 
 # -- benches ------------------------------------------------------------------------------------
 
-def mean_curve(curves: Sequence[Sequence[float]], points: Sequence[int] = (1, 10, 25, 50, 100, 200,
-                                                                            300, 400, 600, 800)) -> dict:
+def mean_curve(curves: Sequence[Sequence[float]],
+               points: Sequence[int] = (1, 10, 25, 50, 100, 200, 300, 400, 600, 800, 1200, 1600,
+                                        2400)) -> dict:
     """{evaluations: the mean over fits of the best drawing distance after that many} (a fit
     that stopped earlier counts with its final value; None while a fit has found no shape the
     program makes yet, so that the JSON stays standard, without Infinity)."""
