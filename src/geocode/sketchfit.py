@@ -46,8 +46,7 @@ Branches, measured on 30 test sketches of the trained cameras (`geocode bench fi
 --modality sketch --n 30`, 800 evaluations), the fitted Chamfer distance against the network's:
 three branches took the chair from 0.48x to 0.38x and the cabinet from 0.42x to 0.39x; the
 table from 0.43x to 0.55x and the lamp from 0.15x to 0.22x, whose searches need the whole
-budget; the vase from 0.82x to 0.67x, but on free-hand doodles its branches add handles that
-the strokes lack (docs/wild.md, Drawings).
+budget; the vase from 0.82x to 0.67x (with today's model 0.59x to 0.55x; docs/wild.md, Drawings).
 """
 
 from __future__ import annotations
