@@ -214,3 +214,32 @@ def test_readings_apart_by_rounding_give_the_same_feedback_rounds():
                                                {"width": 0.7}, 3)]
 
     assert rounds(0.0) == rounds(1e-7)
+
+
+def test_sweeps_spend_no_evaluation_on_what_the_shape_hides():
+    """A stand-in recipe: `width` always shown, `arm_width` and `arm_count` only with arms.
+    Without arms the sweeps move neither; with arms they try both."""
+    from types import SimpleNamespace
+
+    from geocode.fit import SearchSpace, sweep_continuous, sweep_discrete
+
+    def param(name, kind, lo=0.0, hi=1.0):
+        return SimpleNamespace(name=name, kind=kind, min=lo, max=hi)
+
+    recipe = SimpleNamespace(
+        parameters=[param("width", "float"), param("arm_width", "float"), param("arms", "bool"),
+                    param("arm_count", "int")],
+        shown=lambda v: {"width": True, "arm_width": v["arms"] == 1, "arms": True, "arm_count": v["arms"] == 1})
+    for arms, expected in ((0.0, {"width"}), (1.0, {"width", "arm_width", "arm_count"})):
+        start = Start({"width": 0.5, "arm_width": 0.5, "arms": arms, "arm_count": 2.0},
+                      {"arms": [arms], "arm_count": [2.0, 3.0, 4.0]})
+        space, moved = SearchSpace(recipe, start), set()
+        x0 = space.x0()
+
+        def objective(x, space=space, x0=x0, moved=moved):
+            before, after = space.values(x0), space.values(x)
+            moved.update(k for k in before if before[k] != after[k])
+            return 1.0
+        sweep_discrete(objective, space, x0, 1.0, 100)
+        sweep_continuous(objective, space, x0, 1.0, 100)
+        assert moved == expected

@@ -156,7 +156,7 @@ class SearchSpace:
     probable first); a continuous parameter spans [min, max] of the recipe."""
 
     def __init__(self, recipe, start: Start):
-        self.start = start
+        self.recipe, self.start = recipe, start
         self.continuous = [p for p in recipe.parameters if p.kind == "float"]
         self.discrete = [(p, list(start.options.get(p.name, [start.values[p.name]])))
                          for p in recipe.parameters if p.kind != "float"]
@@ -175,6 +175,10 @@ class SearchSpace:
         for (p, values), xi in zip(self.discrete, x[len(self.continuous):], strict=True):
             out[p.name] = float(values[min(int(xi * len(values)), len(values) - 1)])
         return out
+
+    def shown(self, x: np.ndarray) -> dict[str, bool]:
+        """`recipe.shown` at x (coordinates after the parameters', a drawing's camera, ignored)."""
+        return self.recipe.shown(self.values(x[:len(self.continuous) + len(self.discrete)]))
 
 
 def align(points: np.ndarray, distance: CloudDistance, pose: Pose,
@@ -447,13 +451,15 @@ def cma_search(objective, x0: np.ndarray, budget: int, seed: int,
 
 def sweep_discrete(objective, space: SearchSpace, x: np.ndarray, f: float,
                    budget: int) -> tuple[np.ndarray, float]:
-    """Greedy: each discrete parameter in turn tries its other candidate values (the network's
-    next choices), keeping any that lowers `objective`; at most `budget` evaluations. CMA-ES
-    moves a discrete coordinate only as one of dozens at once, so that a wrong class of the
-    network (a leg or slat count) is rarely corrected without this sweep."""
+    """Greedy: each discrete parameter that the shape shows in turn tries its other candidate
+    values (the network's next choices), keeping any that lowers `objective`; at most `budget`
+    evaluations. CMA-ES moves a discrete coordinate only as one of dozens at once, so that a
+    wrong class of the network (a leg or slat count) is rarely corrected without this sweep."""
     x, used = np.array(x, dtype=np.float64), 0
     first = len(space.continuous)
-    for j, (_, values) in enumerate(space.discrete):
+    for j, (p, values) in enumerate(space.discrete):
+        if not space.shown(x)[p.name]:   # a leg count without legs: no evaluation spent
+            continue
         for k in range(1, len(values)):
             if used >= budget:
                 return x, f
@@ -468,14 +474,19 @@ def sweep_discrete(objective, space: SearchSpace, x: np.ndarray, f: float,
 
 def sweep_continuous(objective, space: SearchSpace, x: np.ndarray, f: float, budget: int,
                      step: float = 0.15, extra: int = 0) -> tuple[np.ndarray, float]:
-    """Greedy: each continuous parameter, then each of the `extra` coordinates after the
-    parameters' (a drawing's camera), in turn tries +-`step` in the unit box (the second side
-    only when the first does not help), keeping what lowers `objective`; at most `budget`
-    evaluations. Most parameters change one part of the shape; one at a time, each change is
-    judged on its own, where a population of random moves of all of them at once mixes good
-    and bad ones."""
+    """Greedy: each continuous parameter that the shape shows, then each of the `extra`
+    coordinates after the parameters' (a drawing's camera), in turn tries +-`step` in the unit
+    box (the second side only when the first does not help), keeping what lowers `objective`;
+    at most `budget` evaluations. Most parameters change one part of the shape; one at a time,
+    each change is judged on its own, where a population of random moves of all of them at
+    once mixes good and bad ones. A parameter of a part the shape lacks changes nothing, so
+    it is skipped rather than given evaluations (docs/wild.md, Hidden parameters)."""
     x, used = np.array(x, dtype=np.float64), 0
+    shown = space.shown(x)   # continuous moves do not change what is shown
+    hidden = {j for j, p in enumerate(space.continuous) if not shown[p.name]}
     for j in [*range(len(space.continuous)), *range(len(x) - extra, len(x))]:
+        if j in hidden:
+            continue
         for sign in (1.0, -1.0):
             if used >= budget:
                 return x, f
