@@ -482,10 +482,9 @@ def sweep_continuous(objective, space: SearchSpace, x: np.ndarray, f: float, bud
     once mixes good and bad ones. A parameter of a part the shape lacks changes nothing, so
     it is skipped rather than given evaluations (docs/wild.md, Hidden parameters)."""
     x, used = np.array(x, dtype=np.float64), 0
-    shown = space.shown(x)   # continuous moves do not change what is shown
-    hidden = {j for j, p in enumerate(space.continuous) if not shown[p.name]}
+    shown = space.shown(x)
     for j in [*range(len(space.continuous)), *range(len(x) - extra, len(x))]:
-        if j in hidden:
+        if j < len(space.continuous) and not shown[space.continuous[j].name]:
             continue
         for sign in (1.0, -1.0):
             if used >= budget:
@@ -498,6 +497,7 @@ def sweep_continuous(objective, space: SearchSpace, x: np.ndarray, f: float, bud
             used += 1
             if g < f:
                 x, f = y, g
+                shown = space.shown(x)
                 break
     return x, f
 
