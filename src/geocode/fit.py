@@ -10,8 +10,9 @@ centring on the bounding box is biased where a scan misses a side.
 
 From the best start, coordinate sweeps come first (`sweep_discrete`, `sweep_continuous`: each
 discrete parameter's other choices, then each continuous parameter +-a step, one at a time,
-kept where they help), then CMA-ES runs from the best few starts (the network's answer at
-several turns of the input, its feedback rounds, the nearest training shapes), and last
+kept where they help; none spent on a part the shape lacks), then CMA-ES runs from the best
+few starts (the network's answer at several turns of the input, its feedback rounds, the
+nearest training shapes), and last
 sweeps of smaller steps from the best shape found. The sweeps make the fit end near the same
 shape from nearby starts: on the first 10 test chairs, each fitted as given and turned by 137
 degrees (whose starts differ a little), CMA-ES alone ended within 1.2x of itself on 5 of 10
