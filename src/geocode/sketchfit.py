@@ -33,8 +33,9 @@ domain in the config's eval.sketch_fit_branches), that option held, each search 
 share of the evaluations; the branch whose drawing ends nearest is the answer. Within a
 search, from the best start, for each step of STEPS: every shown discrete parameter's
 other choices one at a time, then every shown continuous parameter and camera coordinate
-+-step one at a time (`fit.sweep_discrete`, `fit.sweep_continuous`), keeping what helps (coordinate sweeps: one parameter mostly moves one part of the drawing,
-and the network's answer is near, so single moves judged alone beat a population of
++-step one at a time (`fit.sweep_discrete`, `fit.sweep_continuous`), keeping what helps
+(coordinate sweeps: one parameter mostly moves one part of the drawing, and the network's
+answer is near, so single moves judged alone beat a population of
 60-dimensional random moves at these budgets); then CMA-ES with per-coordinate steps on
 everything with what is left. The objective adds to the drawing distance PRIOR * |x - x0|^2 over the parameters'
 unit-box coordinates (x0: the start's): one view leaves depth undecided, and where the
