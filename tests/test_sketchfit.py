@@ -23,6 +23,7 @@ from geocode.meshio import normalise_unit_sphere
 from geocode.program import Program
 from geocode.recipe import Parameter
 from geocode.sketchfit import (
+    SHIFT_SPAN,
     CameraSpace,
     DrawingFit,
     Shapes,
@@ -47,6 +48,7 @@ def test_camera_space_starts_at_its_view_and_spans_the_ranges():
     assert (low.elevation, high.elevation) == (0.0, 60.0)
     assert (low.roll, high.roll) == (-10.0, 10.0)
     assert low.scale == pytest.approx(1.2 / 1.4) and high.scale == pytest.approx(1.2 * 1.4)
+    assert low.offset == (3.0 - SHIFT_SPAN, -2.0 - SHIFT_SPAN) and high.offset == (3.0 + SHIFT_SPAN, -2.0 + SHIFT_SPAN)
 
 
 def test_framing_puts_the_strokes_on_the_targets_box():
