@@ -23,7 +23,6 @@ from geocode.meshio import normalise_unit_sphere
 from geocode.program import Program
 from geocode.recipe import Parameter
 from geocode.sketchfit import (
-    SHIFT_SPAN,
     CameraSpace,
     DrawingFit,
     Shapes,
@@ -48,7 +47,7 @@ def test_camera_space_starts_at_its_view_and_spans_the_ranges():
     assert (low.elevation, high.elevation) == (0.0, 60.0)
     assert (low.roll, high.roll) == (-10.0, 10.0)
     assert low.scale == pytest.approx(1.2 / 1.4) and high.scale == pytest.approx(1.2 * 1.4)
-    assert low.offset == (3.0 - SHIFT_SPAN, -2.0 - SHIFT_SPAN) and high.offset == (3.0 + SHIFT_SPAN, -2.0 + SHIFT_SPAN)
+    assert low.offset == (-5.0, -10.0) and high.offset == (11.0, 6.0)   # 8 px either way
 
 
 def test_framing_puts_the_strokes_on_the_targets_box():
