@@ -4,7 +4,7 @@ defaults, the model variants derived from joint."""
 import pytest
 from omegaconf import OmegaConf
 
-from geocode.config import ConfigError, compose, settings, sketch_fit_budget
+from geocode.config import ConfigError, compose, settings, sketch_fit_budget, sketch_fit_searches
 from geocode.settings import MAPPINGS, Settings, check, documented_keys
 
 
@@ -19,14 +19,21 @@ def test_the_models_give_every_key_a_meaning_and_valid_values():
     assert {"seed", "paths.runs", "data.points.fps", "model._target_", "train.lr", "eval.fit"} <= set(keys)
     assert all(meaning and valid for meaning, valid in keys.values())
     assert MAPPINGS == {"data.domain_variations", "train.domain_epochs", "train.variant_epochs",
-                        "eval.sketch_fit_branches", "eval.sketch_fit_domain_budget"}
+                        "eval.sketch_fit_branches", "eval.sketch_fit_orders", "eval.sketch_fit_domain_budget"}
 
 
 def test_a_domain_s_drawing_fit_budget_overrides_the_default_for_it_alone():
     cfg = compose(["eval.sketch_fit_budget=300", "eval.sketch_fit_domain_budget={chair: 900}"])
-    assert sketch_fit_budget(cfg, "chair") == 900 and sketch_fit_budget(cfg, "vase") == 300
+    assert sketch_fit_budget(cfg, "chair") == 900 and sketch_fit_budget(cfg, "cabinet") == 300
     smoke = compose(["profile=smoke"])
     assert sketch_fit_budget(smoke, "chair") == smoke.eval.sketch_fit_budget
+
+
+def test_a_domain_s_drawing_fit_searches_come_from_its_branches_and_orders():
+    cfg = compose(["eval.sketch_fit_branches=null", "+eval.sketch_fit_orders.table=2"])
+    assert sketch_fit_searches(cfg, "table") == {"branches": 1, "orders": 2}
+    assert sketch_fit_searches(cfg, "chair") == {"branches": 1, "orders": 1}
+    assert sketch_fit_searches(compose([]), "vase") == {"branches": 3, "orders": 2}
 
 
 def test_a_key_the_models_do_not_know_is_refused():

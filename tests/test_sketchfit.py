@@ -167,6 +167,39 @@ def test_fit_answers_the_branch_whose_search_ends_nearest(monkeypatch):
     assert result.evaluations == 800 and result.curve == sorted(result.curve, reverse=True)
 
 
+def test_two_orders_search_each_branch_with_its_switches_judged_before_and_after(monkeypatch):
+    """`orders` 2: each branch is searched twice on an equal share, its discrete sweep before
+    and then after each continuous sweep; the answer is the search that ends nearest, here the
+    second order of the second branch. With too small a budget for both, one order is kept."""
+    import geocode.sketchfit as sketchfit
+
+    sweeps, plan = [], []
+    monkeypatch.setattr(sketchfit, "sweep_discrete", lambda obj, space, x, f, budget: (sweeps.append("d"), (x, f))[1])
+    monkeypatch.setattr(sketchfit, "sweep_continuous", lambda obj, space, x, f, budget, step, extra: (sweeps.append("c"), (x, f))[1])
+    start = Start({"width": 1.0, "depth": 0.7, "count": 1.0}, {"count": [1.0, 2.0]})
+    drawing = boxes_drawing(start.values, View())
+    fit_drawing(BOXES, BOXES, [start], drawing, budget=60, seed=0, guesses=((35.0, 30.0),), orders=1)
+    assert "".join(sweeps) == "dc" * 3
+    sweeps.clear()
+    fit_drawing(BOXES, BOXES, [start], drawing, budget=60, seed=0, guesses=((35.0, 30.0),), orders=2)
+    assert "".join(sweeps) == "dc" * 3   # 60 evaluations give no search of BRANCH_BUDGET: one order
+
+    def search(program, recipe, starts, drawing, drawer, budget, seed, guesses, read, switches_first):
+        count = starts[0].values["count"]
+        plan.append((count, switches_first, budget))
+        return DrawingFit(values={**starts[0].values, "width": float(switches_first)}, camera=View(), before=3.0,
+                          after=1.0 if (count, switches_first) != (2.0, False) else 0.5, evaluations=budget,
+                          seconds=0.0, curve=[3.0] * budget)
+
+    monkeypatch.setattr(sketchfit, "search", search)
+    result = fit_drawing(BOXES, BOXES, [start], drawing, budget=1000, branches=2, orders=2)
+    assert plan == [(1.0, True, 250), (1.0, False, 250), (2.0, True, 250), (2.0, False, 250)]
+    assert result.values["count"] == 2.0 and result.values["width"] == 0.0 and result.after == 0.5
+    plan.clear()
+    fit_drawing(BOXES, BOXES, [start], drawing, budget=600, branches=2, orders=2)
+    assert plan == [(1.0, True, 300), (1.0, False, 300)]   # both orders before a second branch
+
+
 def test_fit_keeps_the_trained_view_where_a_quarter_turn_draws_nearly_as_well():
     """A box of width 1.0 and depth 0.9 drawn from azimuth 55 is also a box of width 0.9 and
     depth 1.0 drawn from -35. From a start between the two (0.94 x 0.96), the view of -35 draws

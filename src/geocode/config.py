@@ -97,7 +97,7 @@ def _check_known(cfg: DictConfig) -> None:
     # the profiles name the project's domains; a programs folder of one's own may lack them
     shipped = {p.stem for p in (repo_root() / "programs").glob("*.yaml")}
     for key in ("data.domain_variations", "train.domain_epochs", "eval.sketch_fit_branches",
-                "eval.sketch_fit_domain_budget"):
+                "eval.sketch_fit_orders", "eval.sketch_fit_domain_budget"):
         for name in OmegaConf.select(cfg, key) or {}:
             if name not in {*known, *shipped}:
                 raise ConfigError(f"{key}.{name}", "no such domain", f"use one of {', '.join(known) or 'none'}")
@@ -199,9 +199,10 @@ def sketch_fit_budget(cfg: DictConfig, domain: str) -> int:
     return int((cfg.eval.sketch_fit_domain_budget or {}).get(domain, cfg.eval.sketch_fit_budget))
 
 
-def sketch_fit_branches(cfg: DictConfig, domain: str) -> int:
-    """The domain's searches of a drawing's fit (eval.sketch_fit_branches; 1 where not given)."""
-    return int((cfg.eval.sketch_fit_branches or {}).get(domain, 1))
+def sketch_fit_searches(cfg: DictConfig, domain: str) -> dict[str, int]:
+    """The domain's searches of a drawing's fit, as `sketchfit.fit_drawing` takes them:
+    {"branches": eval.sketch_fit_branches', "orders": eval.sketch_fit_orders'} (1 where not given)."""
+    return {k: int((cfg.eval[f"sketch_fit_{k}"] or {}).get(domain, 1)) for k in ("branches", "orders")}
 
 
 def max_epochs(cfg: DictConfig, variant: str, domain: str | None = None) -> int:

@@ -247,6 +247,9 @@ class Eval(Group):
     sketch_fit_branches: Annotated[dict[Name, whole(1)] | None, Expect("null or a mapping {<domain>: a whole number >= 1}")] = key(
         "per-domain searches of a drawing's fit, {<domain>: N}: one for each of the network's N likeliest options "
         "of its least sure discrete choice, the budget shared (docs/wild.md); other domains 1")
+    sketch_fit_orders: Annotated[dict[Name, Annotated[int, Field(ge=1, le=2), Expect("1 or 2")]] | None, Expect("null or a mapping {<domain>: 1 or 2}")] = key(
+        "per-domain sweep orders of a drawing's fit, {<domain>: 2}: each branch searched twice, its discrete "
+        "switches judged before and after the continuous sweeps (docs/wild.md); other domains 1")
     max_fit_shapes: Shapes = key("fit the predictions of eval.fit's conditions on at most this many of the "
                                  "test shapes (an even spread); null: all")
     fit: each(Name) = key("test conditions (pc, pc-noise0.02, sketch-<camera>, ...) whose predictions are "

@@ -30,13 +30,14 @@ vases from 0.77x to 0.73x: docs/wild.md, Drawings, measured).
 The network's answer may be searched once for each of the first few options of the discrete
 parameter it is least sure of (`held_options`; how many: `fit_drawing`'s `branches`, per
 domain in the config's eval.sketch_fit_branches), that option held, each search on an equal
-share of the evaluations; the branch whose drawing ends nearest is the answer. Within a
-search, from the best start, for each step of STEPS: every shown discrete parameter's
-other choices one at a time, then every shown continuous parameter and camera coordinate
-+-step one at a time (`fit.sweep_discrete`, `fit.sweep_continuous`), keeping what helps
-(coordinate sweeps: one parameter mostly moves one part of the drawing, and the network's
-answer is near, so single moves judged alone beat a population of
-60-dimensional random moves at these budgets); then CMA-ES with per-coordinate steps on
+share of the evaluations; the branch whose drawing ends nearest is the answer (with
+`orders` 2, each branch searched in both sweep orders, below). Within a search, from the
+best start, for each step of STEPS: every shown discrete parameter's other choices one at a
+time, then every shown continuous parameter and camera coordinate +-step one at a time (or
+the continuous sweep first: a switch judged on a shape fitted around the start's structure;
+`fit.sweep_discrete`, `fit.sweep_continuous`), keeping what helps (coordinate sweeps: one
+parameter mostly moves one part of the drawing, and the network's answer is near, so single
+moves judged alone beat a population of 60-dimensional random moves at these budgets); then CMA-ES with per-coordinate steps on
 everything with what is left. The objective adds to the drawing distance PRIOR * |x - x0|^2 over the parameters'
 unit-box coordinates (x0: the start's): one view leaves depth undecided, and where the
 drawing does not tell, the network's answer should stand (on chair test sketches it took the
@@ -46,7 +47,9 @@ Branches, measured on 30 test sketches of the trained cameras (`geocode bench fi
 --modality sketch --n 30`, 800 evaluations), the fitted Chamfer distance against the network's:
 three branches took the chair from 0.48x to 0.38x and the cabinet from 0.42x to 0.39x; the
 table from 0.43x to 0.55x and the lamp from 0.15x to 0.22x, whose searches need the whole
-budget; the vase from 0.82x to 0.67x (with today's model 0.59x to 0.55x; docs/wild.md, Drawings).
+budget; the vase from 0.82x to 0.67x (with today's model 0.59x to 0.55x; docs/wild.md, Drawings),
+and searching each of its branches in both sweep orders (1600 evaluations) from 0.53x to 0.49x
+(novel camera 0.71x to 0.70x).
 """
 
 from __future__ import annotations
@@ -233,7 +236,7 @@ def near_trained_view(view: View) -> bool:
 def fit_drawing(program, recipe, starts: Sequence[Start], drawing: np.ndarray,
                 budget: int, seed: int = 0,
                 guesses: Sequence[tuple[float, float]] = CAMERA_GUESSES, helpers: int = 0,
-                read=None, branches: int = 1) -> DrawingFit:
+                read=None, branches: int = 1, orders: int = 1) -> DrawingFit:
     """Search at most `budget` program evaluations for the parameters and camera whose line
     drawing is nearest `drawing` ((224, 224) or (1, 224, 224) float, white 1, strokes 0, as
     `reconstruct.sketch_from_image` or `training_data.load_sketch` give), by
@@ -242,8 +245,10 @@ def fit_drawing(program, recipe, starts: Sequence[Start], drawing: np.ndarray,
     most `branches`, the config's eval.sketch_fit_branches, and as many as give each
     BRANCH_BUDGET evaluations), each on an equal share of the budget, the other starts beside
     it; each search tries every start from every camera guess and framing, then sweeps and
-    CMA-ES from the best (module docstring). The answer is the branch whose drawing ends
-    nearest. Its camera views the
+    CMA-ES from the best (module docstring). With `orders` 2 (the config's
+    eval.sketch_fit_orders) each branch is searched twice, its discrete switches judged before
+    and after each continuous sweep (`search`'s `switches_first`). The answer is the search
+    whose drawing ends nearest. Its camera views the
     unit-sphere shape (`meshio.normalise_unit_sphere`) of its values. `helpers`: processes
     that draw the starts and CMA-ES's generations beside this one (`Drawer`). `read`: the
     network's reading of drawings (`checkpoints.reader`), for `drawing_feedback` on the
@@ -251,11 +256,14 @@ def fit_drawing(program, recipe, starts: Sequence[Start], drawing: np.ndarray,
     started = time.perf_counter()
     drawer = Drawer(program, stroke_mask(drawing), helpers)
     first = Start(program.check(starts[0].values), starts[0].options, starts[0].turn)
-    held = held_options(recipe, first, min(branches, budget // BRANCH_BUDGET))
+    orders = max(1, min(orders, budget // BRANCH_BUDGET))
+    held = held_options(recipe, first, min(branches, budget // (BRANCH_BUDGET * orders)))
+    plan = [(start, first_order) for start in held for first_order in (True, False)[:orders]]
     fits, curve = [], []
-    for k, start in enumerate(held):
-        share = (budget - len(curve)) // (len(held) - k)
-        fits.append(search(program, recipe, [start, *starts[1:]], drawing, drawer, share, seed, guesses, read))
+    for k, (start, switches_first) in enumerate(plan):
+        share = (budget - len(curve)) // (len(plan) - k)
+        fits.append(search(program, recipe, [start, *starts[1:]], drawing, drawer, share, seed, guesses, read,
+                           switches_first))
         curve += [min(d, curve[-1]) if curve else d for d in fits[-1].curve]
     best = min(fits, key=lambda fit: fit.after)
     return replace(best, before=fits[0].before, start_camera=fits[0].start_camera, evaluations=len(curve),
@@ -263,9 +271,13 @@ def fit_drawing(program, recipe, starts: Sequence[Start], drawing: np.ndarray,
 
 
 def search(program, recipe, starts: Sequence[Start], drawing: np.ndarray, drawer: Drawer,
-           budget: int, seed: int, guesses: Sequence[tuple[float, float]], read) -> DrawingFit:
+           budget: int, seed: int, guesses: Sequence[tuple[float, float]], read,
+           switches_first: bool = True) -> DrawingFit:
     """One search of `fit_drawing` (its docstring), drawing with `drawer`: the starts from every
-    camera guess and framing, the feedback on the best, then sweeps and CMA-ES from it."""
+    camera guess and framing, the feedback on the best, then sweeps and CMA-ES from it. At each
+    of STEPS the discrete switches are tried before the continuous sweep (`switches_first`: a
+    switch judged on the start's shape) or after it (judged on a shape fitted around the
+    start's structure); each finds answers the other misses (docs/wild.md, Drawings)."""
     started = time.perf_counter()
     target, shapes, distance = drawer.target, drawer.shapes, drawer.distance
     spaces = []
@@ -316,9 +328,15 @@ def search(program, recipe, starts: Sequence[Start], drawing: np.ndarray, drawer
     # from the best start: sweeps one coordinate at a time, then CMA-ES on all
     i = int(order[0])
     x, f = x0s[i], scores[i]
+    def switches(x: np.ndarray, f: float) -> tuple[np.ndarray, float]:
+        return sweep_discrete(lambda x: objective(i, x), spaces[i][0], x, f, budget - len(curve))
+
     for step in STEPS:
-        x, f = sweep_discrete(lambda x: objective(i, x), spaces[i][0], x, f, budget - len(curve))
+        if switches_first:
+            x, f = switches(x, f)
         x, f = sweep_continuous(lambda x: objective(i, x), spaces[i][0], x, f, budget - len(curve), step, extra=6)
+        if not switches_first:
+            x, f = switches(x, f)
     stds = np.concatenate([np.full(len(x) - 6, SIGMA), CAMERA_SIGMA])
     y, g = cma_search(lambda xs: evaluate([(i, x) for x in xs]), x, budget - len(curve), seed, stds)
     best, best_x, best_i = (g, y, i) if g < f else (f, x, i)

@@ -12,7 +12,7 @@ import numpy as np
 
 from geocode import paths
 from geocode.checkpoints import default_checkpoint, load_model, ranked_prediction, reader
-from geocode.config import sketch_fit_branches, sketch_fit_budget
+from geocode.config import sketch_fit_budget, sketch_fit_searches
 from geocode.fit import Start
 from geocode.meshio import read_obj
 from geocode.metrics import chamfer_meshes
@@ -42,7 +42,7 @@ def bench_sketch_fit(cfg, domain: str, n: int = 10, camera: str = "trained",
         drawing = load_sketch(paths.sketch_file(test, shape_id, cams[k % len(cams)]))
         start, options = ranked_prediction(model, recipe, "sketch", drawing, cfg.eval.decode)
         result = fit_drawing(program, recipe, [Start(start, options)], drawing, budget, seed=cfg.seed,
-                             read=reader(model, recipe, "sketch"), branches=sketch_fit_branches(cfg, domain))
+                             read=reader(model, recipe, "sketch"), **sketch_fit_searches(cfg, domain))
         gt = read_obj(paths.shape_file(paths.shapes_dir(test), shape_id))
         for values, out in ((program.check(start), before), (result.values, after)):
             out.append(chamfer_meshes(program.evaluate(values), gt, n=cfg.eval.chamfer_points,
@@ -50,7 +50,7 @@ def bench_sketch_fit(cfg, domain: str, n: int = 10, camera: str = "trained",
         seconds.append(time.perf_counter() - started)
         curves.append(result.curve)
     return {"domain": domain, "camera": camera, "shapes": len(seconds), "budget": budget,
-            "branches": sketch_fit_branches(cfg, domain), "chamfer_before": round(float(np.mean(before)), 6),
+            **sketch_fit_searches(cfg, domain), "chamfer_before": round(float(np.mean(before)), 6),
             "chamfer_after": round(float(np.mean(after)), 6),
             **ratio_interval(before, after),
             "seconds_per_shape": round(statistics.median(seconds), 2),

@@ -21,7 +21,7 @@ from omegaconf import DictConfig
 from geocode import paths
 from geocode.card import write_card
 from geocode.conditions import FITS, MODALITY_NAMES, SKETCH_FITTED, conditions, robustness, unfitted
-from geocode.config import NAME, sketch_fit_branches, sketch_fit_budget
+from geocode.config import NAME, sketch_fit_budget, sketch_fit_searches
 from geocode.errors import UserError
 from geocode.meshio import (
     REDO_EXPORT,
@@ -222,7 +222,7 @@ def fit_prediction(cfg: DictConfig, domain: str, program, recipe, row: dict, val
     start = [Start(values, json.loads(row[OPTIONS]))]
     if kind == "sketch":
         result = fit_drawing(program, recipe, start, target, sketch_fit_budget(cfg, domain), seed=cfg.seed, read=read,
-                             branches=sketch_fit_branches(cfg, domain))
+                             **sketch_fit_searches(cfg, domain))
     else:   # test clouds sit in the program's own frame, so the pose is not searched
         result = fit(program, recipe, start, target, cfg.eval.fit_budget, seed=cfg.seed, pose=False)
     stats = {"condition": row["condition"], "id": row["id"], "before": result.before, "after": result.after,

@@ -193,7 +193,7 @@ class Reconstructor:
         """The network's answer to a drawing, then (unless --refine 0) `sketchfit`'s search of
         the parameters and the camera; both scored by Freestyle's drawing of them."""
         from geocode.checkpoints import ranked_prediction, reader
-        from geocode.config import sketch_fit_branches, sketch_fit_budget
+        from geocode.config import sketch_fit_budget, sketch_fit_searches
         from geocode.linedraw import drawing_distance
         from geocode.sketchfit import fit_drawing, freestyle_drawing
 
@@ -206,7 +206,7 @@ class Reconstructor:
             return result
         found = fit_drawing(self.program, self.recipe, [Start(values, options)], sketch, budget,
                             seed=self.cfg.seed, helpers=self.helpers, read=reader(self.model, self.recipe, "sketch"),
-                            branches=sketch_fit_branches(self.cfg, self.domain))
+                            **sketch_fit_searches(self.cfg, self.domain))
 
         def scored(values: dict, camera) -> tuple[float, np.ndarray]:
             drawn = freestyle_drawing(normalise_unit_sphere(self.program.evaluate(values)), camera)
