@@ -24,7 +24,6 @@ from geocode.program import Program
 from geocode.recipe import Parameter
 from geocode.sketchfit import (
     CameraSpace,
-    DrawingFit,
     Shapes,
     bounding_box,
     drawing_feedback,
@@ -144,33 +143,40 @@ def test_held_options_are_each_option_of_the_least_sure_parameter_the_shape_show
     assert len(held_options(recipe, Start(values, options), 1)) == 1
 
 
+def fake_finish(ends: dict, plan: list):
+    """A stand-in for `finish_search` that ends each search at `ends[(count, switches_first)]`
+    px, spending its whole budget, and notes (count, switches_first, the search's share)."""
+    def finish(recipe, draw, opening, budget, seed, switches_first):
+        count = opening.start.values["count"]
+        plan.append((count, switches_first, budget + len(opening.curve)))
+        values = {**opening.start.values, "width": float(switches_first)}
+        return values, opening.view, ends[count, switches_first], [9.0] * budget
+    return finish
+
+
 def test_fit_answers_the_branch_whose_search_ends_nearest(monkeypatch):
     """Three branches of the box count, each searched on a third of the budget: the answer is
     the branch that ends nearest the drawing (count 2 here), `before` is the network's own
     choice's, and the curve runs over all three searches."""
     import geocode.sketchfit as sketchfit
 
-    ends = {1.0: 2.0, 2.0: 0.5, 3.0: 1.5}
-    shares = []
-
-    def search(program, recipe, starts, drawing, drawer, budget, *rest):
-        count = starts[0].values["count"]
-        shares.append((starts[0].options["count"], budget))
-        return DrawingFit(values=dict(starts[0].values), camera=View(), before=3.0 + count,
-                          after=ends[count], evaluations=budget, seconds=0.0, curve=[3.0 + count] * budget)
-
-    monkeypatch.setattr(sketchfit, "search", search)
+    plan, openings = [], []
+    monkeypatch.setattr(sketchfit, "finish_search", fake_finish({(1.0, True): 2.0, (2.0, True): 0.5, (3.0, True): 1.5}, plan))
+    opened = sketchfit.open_search
+    monkeypatch.setattr(sketchfit, "open_search", lambda *a: (openings.append(opened(*a)), openings[-1])[1])
     start = Start({"width": 1.0, "depth": 0.7, "count": 1.0}, {"count": [1.0, 2.0, 3.0]})
     result = fit_drawing(BOXES, BOXES, [start], boxes_drawing(start.values, View()), budget=800, branches=3)
-    assert shares == [([1.0], 266), ([2.0], 267), ([3.0], 267)]
-    assert result.values["count"] == 2.0 and result.after == 0.5 and result.before == 4.0
+    assert plan == [(1.0, True, 266), (2.0, True, 267), (3.0, True, 267)]
+    assert result.values["count"] == 2.0 and result.after == 0.5
+    assert result.before == openings[0].before and result.start_camera == openings[0].view
     assert result.evaluations == 800 and result.curve == sorted(result.curve, reverse=True)
 
 
 def test_two_orders_search_each_branch_with_its_switches_judged_before_and_after(monkeypatch):
-    """`orders` 2: each branch is searched twice on an equal share, its discrete sweep before
-    and then after each continuous sweep; the answer is the search that ends nearest, here the
-    second order of the second branch. With too small a budget for both, one order is kept."""
+    """`orders` 2: each branch is opened once and finished twice on equal shares, its discrete
+    sweep before and then after each continuous sweep; the answer is the search that ends
+    nearest, here the second order of the second branch. A budget too small for two searches
+    keeps one order, and with both orders one branch comes before a second."""
     import geocode.sketchfit as sketchfit
 
     sweeps, plan = [], []
@@ -178,26 +184,21 @@ def test_two_orders_search_each_branch_with_its_switches_judged_before_and_after
     monkeypatch.setattr(sketchfit, "sweep_continuous", lambda obj, space, x, f, budget, step, extra: (sweeps.append("c"), (x, f))[1])
     start = Start({"width": 1.0, "depth": 0.7, "count": 1.0}, {"count": [1.0, 2.0]})
     drawing = boxes_drawing(start.values, View())
-    fit_drawing(BOXES, BOXES, [start], drawing, budget=60, seed=0, guesses=((35.0, 30.0),), orders=1)
-    assert "".join(sweeps) == "dc" * 3
+    guesses = ((35.0, 30.0),)
+    fit_drawing(BOXES, BOXES, [start], drawing, budget=600, seed=0, guesses=guesses, orders=2)
+    assert "".join(sweeps) == "dc" * 3 + "cd" * 3
     sweeps.clear()
-    fit_drawing(BOXES, BOXES, [start], drawing, budget=60, seed=0, guesses=((35.0, 30.0),), orders=2)
+    fit_drawing(BOXES, BOXES, [start], drawing, budget=60, seed=0, guesses=guesses, orders=2)
     assert "".join(sweeps) == "dc" * 3   # 60 evaluations give no search of BRANCH_BUDGET: one order
 
-    def search(program, recipe, starts, drawing, drawer, budget, seed, guesses, read, switches_first):
-        count = starts[0].values["count"]
-        plan.append((count, switches_first, budget))
-        return DrawingFit(values={**starts[0].values, "width": float(switches_first)}, camera=View(), before=3.0,
-                          after=1.0 if (count, switches_first) != (2.0, False) else 0.5, evaluations=budget,
-                          seconds=0.0, curve=[3.0] * budget)
-
-    monkeypatch.setattr(sketchfit, "search", search)
-    result = fit_drawing(BOXES, BOXES, [start], drawing, budget=1000, branches=2, orders=2)
+    ends = {(1.0, True): 1.0, (1.0, False): 1.0, (2.0, True): 1.0, (2.0, False): 0.5}
+    monkeypatch.setattr(sketchfit, "finish_search", fake_finish(ends, plan))
+    result = fit_drawing(BOXES, BOXES, [start], drawing, budget=1000, guesses=guesses, branches=2, orders=2)
     assert plan == [(1.0, True, 250), (1.0, False, 250), (2.0, True, 250), (2.0, False, 250)]
     assert result.values["count"] == 2.0 and result.values["width"] == 0.0 and result.after == 0.5
     plan.clear()
-    fit_drawing(BOXES, BOXES, [start], drawing, budget=600, branches=2, orders=2)
-    assert plan == [(1.0, True, 300), (1.0, False, 300)]   # both orders before a second branch
+    fit_drawing(BOXES, BOXES, [start], drawing, budget=600, guesses=guesses, branches=2, orders=2)
+    assert plan == [(1.0, True, 300), (1.0, False, 300)]
 
 
 def test_fit_keeps_the_trained_view_where_a_quarter_turn_draws_nearly_as_well():
@@ -293,16 +294,18 @@ def test_fit_brings_a_program_shape_nearer_its_drawing(program):
 @pytest.mark.blender
 def test_helper_processes_give_the_same_drawing_fit(program):
     """The starts and CMA-ES's generations drawn in a helper process (its own Blender and
-    shape cache) beside this one: the same distances in the same order, so the same fit."""
+    shape cache) beside this one, or with two searches, the second finished there whole: the
+    same distances in the same order, so the same fit."""
     recipe = program.recipe()
     rng = np.random.default_rng(6)
     truth, other = (next(v for v in iter(lambda: program.random_values(rng), None)
                          if recipe.satisfies(v)) for _ in range(2))
     drawing = render(normalise_unit_sphere(program.evaluate(truth)), View(35.0, 30.0))
-    alone, shared = (fit_drawing(program, recipe, [Start(other)], drawing, budget=250, seed=0,
-                                 guesses=((35.0, 30.0),), helpers=helpers)   # sweeps, then CMA-ES
-                     for helpers in (0, 1))
-    assert shared.curve == alone.curve and shared.values == alone.values and shared.camera == alone.camera
+    for budget, orders in ((250, 1), (500, 2)):
+        alone, shared = (fit_drawing(program, recipe, [Start(other)], drawing, budget=budget, seed=0,
+                                     guesses=((35.0, 30.0),), helpers=helpers, orders=orders)
+                         for helpers in (0, 1))
+        assert shared.curve == alone.curve and shared.values == alone.values and shared.camera == alone.camera
 
 
 def test_freestyle_drawing_follows_the_view(blender):

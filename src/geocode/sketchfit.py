@@ -58,7 +58,7 @@ import math
 import time
 import uuid
 from collections.abc import Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -206,10 +206,34 @@ class Drawer:
         return share_out(self.pool, self.helpers, batch, lambda item: drawn_distance(self.shapes, self.distance, *item),
                          _helper_distances, self.token, self.target)
 
+    def here(self, batch: list[tuple[dict, View]]) -> list[float]:
+        """Drawing distances of a batch in this process alone."""
+        return [drawn_distance(self.shapes, self.distance, *item) for item in batch]
+
+    def finish(self, recipe, jobs: list[tuple]) -> list[tuple[dict, View, float, list[float]]]:
+        """`finish_search(recipe, draw, *job)` of each job, shared out whole between this
+        process and the helpers (a single job draws its batches with the helpers instead)."""
+        if self.pool is None or len(jobs) < 2:
+            return [finish_search(recipe, self, *job) for job in jobs]
+        return share_out(self.pool, self.helpers, jobs, lambda job: finish_search(recipe, self.here, *job),
+                         _helper_finish, self.token, self.target, recipe)
+
+
+def _helper_state(token: str, target: np.ndarray):
+    """In a helper process: (its program, (Shapes, DrawingDistance to `target`)) for a fit."""
+    return helper_state(token, lambda program: (Shapes(program), DrawingDistance(target)))
+
 
 def _helper_distances(token: str, target: np.ndarray, batch: list[tuple[dict, View]]) -> list[float]:
-    _, (shapes, distance) = helper_state(token, lambda program: (Shapes(program), DrawingDistance(target)))
+    _, (shapes, distance) = _helper_state(token, target)
     return [drawn_distance(shapes, distance, v, w) for v, w in batch]
+
+
+def _helper_finish(token: str, target: np.ndarray, recipe,
+                   jobs: list[tuple]) -> list[tuple[dict, View, float, list[float]]]:
+    _, (shapes, distance) = _helper_state(token, target)
+    return [finish_search(recipe, lambda batch: [drawn_distance(shapes, distance, *item) for item in batch], *job)
+            for job in jobs]
 
 
 def camera_starts(shapes: Shapes, values: dict, target: np.ndarray,
@@ -244,58 +268,64 @@ def fit_drawing(program, recipe, starts: Sequence[Start], drawing: np.ndarray,
     discrete options, the least sure first) is searched once per branch (`held_options`; at
     most `branches`, the config's eval.sketch_fit_branches, and as many as give each
     BRANCH_BUDGET evaluations), each on an equal share of the budget, the other starts beside
-    it; each search tries every start from every camera guess and framing, then sweeps and
-    CMA-ES from the best (module docstring). With `orders` 2 (the config's
-    eval.sketch_fit_orders) each branch is searched twice, its discrete switches judged before
-    and after each continuous sweep (`search`'s `switches_first`). The answer is the search
-    whose drawing ends nearest. Its camera views the
-    unit-sphere shape (`meshio.normalise_unit_sphere`) of its values. `helpers`: processes
-    that draw the starts and CMA-ES's generations beside this one (`Drawer`). `read`: the
-    network's reading of drawings (`checkpoints.reader`), for `drawing_feedback` on the
-    best start before the search (None: no feedback)."""
+    it; each search tries every start from every camera guess and framing (`open_search`),
+    then sweeps and CMA-ES from the best (`finish_search`; module docstring). With `orders` 2
+    (the config's eval.sketch_fit_orders) each branch is searched twice from its one opening,
+    its discrete switches judged before and after each continuous sweep. The answer is the
+    search whose drawing ends nearest. Its camera views the unit-sphere shape
+    (`meshio.normalise_unit_sphere`) of its values. `helpers`: processes that draw the starts
+    beside this one (`Drawer`) and then finish searches beside it, each whole (the same
+    numbers sooner). `read`: the network's reading of drawings (`checkpoints.reader`), for
+    `drawing_feedback` on the best start before the search (None: no feedback)."""
     started = time.perf_counter()
     drawer = Drawer(program, stroke_mask(drawing), helpers)
     first = Start(program.check(starts[0].values), starts[0].options, starts[0].turn)
     orders = max(1, min(orders, budget // BRANCH_BUDGET))
     held = held_options(recipe, first, min(branches, budget // (BRANCH_BUDGET * orders)))
-    plan = [(start, first_order) for start in held for first_order in (True, False)[:orders]]
-    fits, curve = [], []
-    for k, (start, switches_first) in enumerate(plan):
-        share = (budget - len(curve)) // (len(plan) - k)
-        fits.append(search(program, recipe, [start, *starts[1:]], drawing, drawer, share, seed, guesses, read,
-                           switches_first))
-        curve += [min(d, curve[-1]) if curve else d for d in fits[-1].curve]
-    best = min(fits, key=lambda fit: fit.after)
-    return replace(best, before=fits[0].before, start_camera=fits[0].start_camera, evaluations=len(curve),
-                   seconds=time.perf_counter() - started, curve=curve)
-
-
-def search(program, recipe, starts: Sequence[Start], drawing: np.ndarray, drawer: Drawer,
-           budget: int, seed: int, guesses: Sequence[tuple[float, float]], read,
-           switches_first: bool = True) -> DrawingFit:
-    """One search of `fit_drawing` (its docstring), drawing with `drawer`: the starts from every
-    camera guess and framing, the feedback on the best, then sweeps and CMA-ES from it. At each
-    of STEPS the discrete switches are tried before the continuous sweep (`switches_first`: a
-    switch judged on the start's shape) or after it (judged on a shape fitted around the
-    start's structure); each finds answers the other misses (docs/wild.md, Drawings)."""
-    started = time.perf_counter()
-    target, shapes, distance = drawer.target, drawer.shapes, drawer.distance
-    spaces = []
-    for s in starts:
-        space = SearchSpace(recipe, Start(program.check(s.values), s.options))
-        spaces += [(space, CameraSpace(v)) for v in camera_starts(shapes, space.start.values, target, guesses)]
+    n = len(held) * orders
+    shares = [budget // n + (k >= n - budget % n) for k in range(n)]   # equal, the remainder last
+    openings = [open_search(program, recipe, [start, *starts[1:]], drawing, drawer, shares[b * orders], guesses, read)
+                for b, start in enumerate(held)]
+    jobs = [(openings[k // orders], shares[k] - len(openings[k // orders].curve), seed, k % orders == 0)
+            for k in range(n)]
+    ends = drawer.finish(recipe, jobs)
     curve: list[float] = []
+    for d in [d for o in openings for d in o.curve] + [d for end in ends for d in end[3]]:
+        curve.append(min(d, curve[-1]) if curve else d)
+    k = min(range(n), key=lambda k: ends[k][2])   # the search whose drawing ends nearest
+    values, camera, after, _ = ends[k]
+    return DrawingFit(values=values, camera=camera, before=openings[0].before, after=after,
+                      evaluations=len(curve), seconds=time.perf_counter() - started,
+                      start=jobs[k][0].index, start_camera=openings[0].view, curve=curve)
+
+
+@dataclass
+class Opening:
+    """A search after its starts and the network's feedback (`open_search`): where its
+    sweeps begin, and what it cost."""
+    start: Start          # the best start's values (after the feedback) and options
+    view: View            # ... its view
+    score: float          # ... its objective
+    before: float         # the best start's drawing distance before the feedback
+    index: int            # which start (camera guess x framing) it is
+    curve: list[float]    # best objective after each evaluation
+
+
+def objective(recipe, draw, spaces: Sequence[tuple[SearchSpace, CameraSpace]], curve: list[float]):
+    """(evaluate, the starts' coordinates x0): the search's objective on candidates [(start i,
+    x)], drawn by `draw` in one batch: the drawing distance plus PRIOR (and CAMERA_PRIOR)
+    times the squared unit-box move from x0[i]; inf where the recipe's rules fail or the
+    program refuses. Each value goes on `curve` as the best so far."""
+    x0s = [np.concatenate([space.x0(), cams.x0()]) for space, cams in spaces]
 
     def evaluate(candidates: Sequence[tuple[int, np.ndarray]]) -> list[float]:
-        """The objective of candidates (start i, x), drawn in one batch (inf where the
-        recipe's rules fail or the program refuses)."""
         shaped = []
         for i, x in candidates:
             space, cams = spaces[i]
             n = len(x) - 6
             shaped.append((space.values(np.asarray(x[:n])), cams.view(x[n:]), n))
         valid = [k for k, (v, _, _) in enumerate(shaped) if recipe.satisfies(v)]
-        drawn = dict(zip(valid, drawer([shaped[k][:2] for k in valid]), strict=True))
+        drawn = dict(zip(valid, draw([shaped[k][:2] for k in valid]), strict=True))
         out = []
         for k, (i, x) in enumerate(candidates):
             value, n = drawn.get(k, math.inf), shaped[k][2]
@@ -306,48 +336,68 @@ def search(program, recipe, starts: Sequence[Start], drawing: np.ndarray, drawer
             out.append(value)
         return out
 
-    def objective(i: int, x: np.ndarray) -> float:
-        return evaluate([(i, x)])[0]
+    return evaluate, x0s
 
-    x0s = [np.concatenate([space.x0(), cams.x0()]) for space, cams in spaces]
+
+def open_search(program, recipe, starts: Sequence[Start], drawing: np.ndarray, drawer: Drawer,
+                budget: int, guesses: Sequence[tuple[float, float]], read) -> Opening:
+    """A search's first part (`fit_drawing`'s docstring): every start from every camera guess
+    and framing, scored in one batch (a view far from the trained ones with VIEW_MARGIN), then
+    the network's feedback on the best."""
+    shapes, distance = drawer.shapes, drawer.distance
+    spaces = []
+    for s in starts:
+        space = SearchSpace(recipe, Start(program.check(s.values), s.options))
+        spaces += [(space, CameraSpace(v)) for v in camera_starts(shapes, space.start.values, drawer.target, guesses)]
+    curve: list[float] = []
+    evaluate, x0s = objective(recipe, drawer, spaces, curve)
     scores = evaluate(list(enumerate(x0s[:max(1, budget)])))
     handicap = [0.0 if near_trained_view(cams.start) else VIEW_MARGIN for _, cams in spaces[:len(scores)]]
-    order = np.argsort(np.add(scores, handicap), kind="stable")
-    before = float(scores[order[0]])
+    i = int(np.argsort(np.add(scores, handicap), kind="stable")[0])
+    (space, cams), before = spaces[i], float(scores[i])
+    start, score = space.start, before
     if read is not None and math.isfinite(before):   # the network corrects its own reading
-        i = int(order[0])
-        space, cams = spaces[i]
-        rounds = drawing_feedback(read, shapes, distance, recipe, drawing, space.start.values, cams.start,
+        rounds = drawing_feedback(read, shapes, distance, recipe, drawing, start.values, cams.start,
                                   min(FEEDBACK, budget - len(curve)))
         for d, _ in rounds:
             curve.append(min(d, curve[-1]))
         d, values = min(rounds, key=lambda r: r[0], default=(math.inf, None))
-        if d < scores[i]:
-            space = SearchSpace(recipe, Start(values, space.start.options))
-            spaces[i], x0s[i], scores[i] = (space, cams), np.concatenate([space.x0(), cams.x0()]), d
-    # from the best start: sweeps one coordinate at a time, then CMA-ES on all
-    i = int(order[0])
-    x, f = x0s[i], scores[i]
+        if d < score:
+            start, score = Start(values, start.options), d
+    return Opening(start, cams.start, score, before, i, curve)
+
+
+def finish_search(recipe, draw, opening: Opening, budget: int, seed: int,
+                  switches_first: bool) -> tuple[dict, View, float, list[float]]:
+    """A search's second part, from its opening, within `budget` evaluations: for each of
+    STEPS, sweeps one coordinate at a time, the discrete switches before the continuous sweep
+    (`switches_first`: a switch judged on the start's shape) or after it (judged on a shape
+    fitted around the start's structure; each order finds answers the other misses,
+    docs/wild.md, Drawings), then CMA-ES on all. (values, view, drawing distance less the
+    prior, curve) of the best candidate; `draw` as `Drawer`."""
+    space, cams = SearchSpace(recipe, opening.start), CameraSpace(opening.view)
+    curve: list[float] = []
+    evaluate, (x,) = objective(recipe, draw, [(space, cams)], curve)
+    f = opening.score
+
+    def one(x: np.ndarray) -> float:
+        return evaluate([(0, x)])[0]
+
     def switches(x: np.ndarray, f: float) -> tuple[np.ndarray, float]:
-        return sweep_discrete(lambda x: objective(i, x), spaces[i][0], x, f, budget - len(curve))
+        return sweep_discrete(one, space, x, f, budget - len(curve))
 
     for step in STEPS:
         if switches_first:
             x, f = switches(x, f)
-        x, f = sweep_continuous(lambda x: objective(i, x), spaces[i][0], x, f, budget - len(curve), step, extra=6)
+        x, f = sweep_continuous(one, space, x, f, budget - len(curve), step, extra=6)
         if not switches_first:
             x, f = switches(x, f)
     stds = np.concatenate([np.full(len(x) - 6, SIGMA), CAMERA_SIGMA])
-    y, g = cma_search(lambda xs: evaluate([(i, x) for x in xs]), x, budget - len(curve), seed, stds)
-    best, best_x, best_i = (g, y, i) if g < f else (f, x, i)
-    space, cams = spaces[best_i]
+    y, g = cma_search(lambda xs: evaluate([(0, x) for x in xs]), x, budget - len(curve), seed, stds)
+    best, best_x = (g, y) if g < f else (f, x)
     n = len(best_x) - 6
-    values, camera = space.values(best_x[:n]), cams.view(best_x[n:])
-    outline = shapes(values)
-    after = best if outline is None else distance(strokes(outline, camera))   # less the prior
-    return DrawingFit(values=values, camera=camera, before=before, after=min(after, best),
-                      evaluations=len(curve), seconds=time.perf_counter() - started,
-                      start=best_i, start_camera=spaces[int(order[0])][1].start, curve=curve)
+    values, view = space.values(best_x[:n]), cams.view(best_x[n:])
+    return values, view, min(draw([(values, view)])[0], best), curve
 
 
 def held_options(recipe, start: Start, k: int) -> list[Start]:
