@@ -1,4 +1,4 @@
-"""The chair program (74 parameters: 19 discrete, 55 continuous).
+"""The chair program (78 parameters: 21 discrete, 57 continuous).
 
 Layout: x = width, y = depth (the backrest at +y), z = up; a 0.5 x 0.5 seat before the
 overall scale. Structure (every part touches the rest for every parameter combination):
@@ -17,6 +17,9 @@ overall scale. Structure (every part touches the rest for every parameter combin
   the seat's back corners; cross rails (MeshCrossRail on SampleCurveArray points of the
   frame), vertical rails (the frame's path repeated across) or a solid panel (the frame's
   path swept with a panel profile) span the two frames; a MeshTopRail caps them;
+  optionally the back curves in plan (the frames forward, the filling bowed back between
+  them by UtilBowInPlan: a ladder-back's bowed rails, a shell back) and its top is arched
+  (the top corners brought down by a smooth field over the whole chair);
   optionally the back is lifted off the seat onto a central post (MeshStraightFrame post
   and a yoke across the frames' feet: an office chair);
 - armrests: from a point sampled on the frame forward, either a straight bar
@@ -39,6 +42,7 @@ from geocode.nodes import (
     Graph,
     aligned_bevel_xy,
     bezier_segment_style,
+    bow_in_plan,
     cross_rail,
     cushion_mesh,
     frame_fixed_bottom,
@@ -72,6 +76,9 @@ STRETCHER_SHARE = 0.8    # a stretcher's width, in leg thicknesses (a leg is 2 w
 APRON_SHARE = 0.6        # an apron's thickness, in leg thicknesses (within the legs' faces)
 POST_WIDTH = 2.0         # the back post's width and its yoke's height, in frame widths
 POST_DEPTH = 0.8         # the post's depth, in frame depths (within the yoke's faces)
+PANEL_CUTS = 9           # points along each side of the panel's profile: it can bow
+WRAP_RISE = 0.25         # a wrapped back's bow grows over this lowest share of its rise
+ARCH_ZONE = 0.5          # an arched back bends in this top share of its rise
 PAD_SINK = 0.3           # share of an armrest pad sunk into its armrest
 ARM_LOOP_BULGE = 0.35    # bulge of a loop armrest, as a share of its chord
 
@@ -118,6 +125,12 @@ def _parameters(g: Graph) -> dict:
     add("backrest_height", "float", 0.45, 0.3, 0.6, "height of the backrest above the seat")
     add("backrest_slant", "float", 0.1, -0.05, 0.35, "backward lean of the backrest")
     add("backrest_curvature", "float", 0.0, -0.5, 0.5, "backward bow of the backrest")
+    add("back_wrap", "bool", False, 0, 1, "the back curved in plan, its sides forward")
+    add("back_wrap_depth", "float", 0.08, 0.02, 0.16,
+        "how far the back's middle lies behind its sides (each moves half)")
+    add("back_arch", "bool", False, 0, 1, "the back's top arched: its top corners lowered")
+    add("back_arch_drop", "float", 0.2, 0.05, 0.4,
+        "how far the top corners come down, as a share of the back's rise")
     add("back_frame_offset", "float", 0.0, 0.0, 0.5, "frames moved in from the seat corners")
     add("frame_width", "float", 0.04, 0.02, 0.06, "width of the backrest frames")
     add("frame_depth", "float", 0.04, 0.02, 0.06, "depth of the backrest frames")
@@ -180,8 +193,11 @@ class _Chair:
         # x of the right frame's axis: inside the seat corner, moved in by the offset
         x = self.corner_x - p["frame_width"] * 0.5
         self.frame_x = g.named("frame x", x * (1.0 - p["back_frame_offset"]))
-        # y of the frames' axis, and their foot's lift above `inside` (on a back post)
-        self.frame_y = g.named("frame y", self.corner_y - p["frame_depth"] * 0.5)
+        # y of the frames' axis (half a wrap forward), and their foot's lift above `inside`
+        # (on a back post)
+        self.wrap = g.named("back wrap", g.when(p["back_wrap"], p["back_wrap_depth"], 0.0))
+        self.frame_y = g.named("frame y",
+                               self.corner_y - p["frame_depth"] * 0.5 - self.wrap * 0.5)
         gap = p["back_post_gap"] + p["seat_thickness"] * SINK   # from `inside`
         self.lift = g.named("back lift", g.when(p["back_post"], gap, 0.0))
 
@@ -212,12 +228,13 @@ class _Chair:
         self.frame_curve = g.named("frame path", frame["Curve"])
         self.frame = frame["Mesh"]
 
-    def frame_sweep(self, width, depth, roundness, label):
-        """The frame's path moved to x = 0 and swept with another profile (panels, rails)."""
+    def frame_sweep(self, width, depth, roundness, label, cuts=0):
+        """The frame's path moved to x = 0 and swept with another profile (panels, rails),
+        `cuts` more points along each side of the profile."""
         g = self.g
         centred = g.transform(self.frame_curve, translation=g.vec(-self.frame_x, 0.0, 0.0))
         profile = rectangle_fillet(g, width=width, height=depth, roundness=roundness,
-                                   resolution=2)["Curve"]
+                                   resolution=2, cuts=cuts)["Curve"]
         return aligned_bevel_xy(g, curve=centred, profile_curve=profile, radius=1.0,
                                 fill_caps=True, label=label)["Mesh"]
 
@@ -414,12 +431,19 @@ def _top_rail(c: _Chair):
 
 def _backrest(c: _Chair):
     """Between the frames: a solid panel (`backrest_solid`), else cross or vertical rails
-    with the optional top rail."""
+    with the optional top rail; with `back_wrap`, bowed back in the middle by its depth, its
+    ends in the frames (moved forward by half of it) staying where they are, the bow growing
+    over the lowest WRAP_RISE of the rise, so the filling's foot stays in the seat or on the
+    back post's yoke."""
     g, p = c.g, c.p
     rails = g.when(p["vertical_rails"], _vertical_rails(c), _cross_rails(c))
     open_back = g.join([rails, _top_rail(c)])
-    panel = c.frame_sweep(c.frame_x * 2.0, p["solid_thickness"], 0.0, BACK_PANEL)
-    return g.when(p["backrest_solid"], panel, open_back)
+    panel = c.frame_sweep(c.frame_x * 2.0, p["solid_thickness"], 0.0, BACK_PANEL, PANEL_CUTS)
+    filling = g.when(p["backrest_solid"], panel, open_back)
+    rise = (p["backrest_height"] + p["seat_thickness"] * SINK) * WRAP_RISE
+    grown = g.clamp((g.position().z - c.inside - c.lift) / rise)
+    return bow_in_plan(g, geometry=filling, depth=c.wrap * grown,
+                       half_width=c.frame_x)["Geometry"]
 
 
 def _back_post(c: _Chair):
@@ -531,6 +555,21 @@ def _armrests(c: _Chair):
     return c.g.join([arms, _side_panel(c, arm)])
 
 
+def _arched(c: _Chair, chair):
+    """With `back_arch`, every point of `chair` in the top ARCH_ZONE of the back's rise moved
+    down by `back_arch_drop` x the rise x (|x| / the frames' outer x)^2 x its share of the
+    way up the zone: the top corners come down into an arch, the middle stays. A smooth
+    field, so every part stays joined to what it touched; the seat lies under the zone."""
+    g, p = c.g, c.p
+    rise = p["backrest_height"] + p["seat_thickness"] * SINK
+    zone = rise * ARCH_ZONE
+    bottom = c.inside + c.lift + rise - zone
+    across = g.min(abs(g.position().x) / (c.frame_x + p["frame_width"] * 0.5), 1.0)
+    up = g.clamp((g.position().z - bottom) / zone)
+    drop = g.when(p["back_arch"], p["back_arch_drop"] * rise, 0.0)
+    return g.set_position(chair, offset=g.vec(0.0, 0.0, -drop * across * across * up))
+
+
 # -- assembly -------------------------------------------------------------------------------
 
 def build(g: Graph) -> None:
@@ -557,5 +596,6 @@ def build(g: Graph) -> None:
         right = g.join([legs, c.frame, armrests])
         chair = g.join([c.seat["Mesh"], pillow, mirror(g, geometry=right, axis=0)["Geometry"],
                         monoleg, backrest, post])
-        scaled = g.transform(chair, scale=g.vec(p["scale_x"], p["scale_y"], p["scale_z"]))
+        scaled = g.transform(_arched(c, chair),
+                             scale=g.vec(p["scale_x"], p["scale_y"], p["scale_z"]))
         g.output("Geometry", "geometry", g.ground(scaled))

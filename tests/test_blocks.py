@@ -72,6 +72,19 @@ def test_rectangle_fillet_follows_width_and_height(blender):
     assert points[:, 1].max() == pytest.approx(0.5, abs=1e-3)
 
 
+def test_rectangle_fillet_cuts_add_points_evenly_along_each_side_only(blender):
+    def profile(cuts):
+        return _curve_points(lambda g: nodes.rectangle_fillet(
+            g, width=4.0, height=1.0, roundness=0.0, resolution=2, cuts=cuts)["Curve"])
+
+    plain, cut = profile(0), profile(3)
+    assert len(plain) == 12 and len(cut) == 12 + 4 * 3
+    # the same rectangle: every new point lies on a side, the corners as before
+    assert np.abs(cut[:, :2] / (2.0, 0.5)).max(axis=1) == pytest.approx(1.0, abs=1e-3)
+    top = np.sort(cut[np.abs(cut[:, 1] - 0.5) < 1e-3, 0])
+    assert np.unique(top.round(3)) == pytest.approx([-2.0, -1.0, 0.0, 1.0, 2.0], abs=2e-3)
+
+
 # -- curves ------------------------------------------------------------------------------------
 
 def test_quadratic_cartesian_passes_its_ends_and_bends_by_offset(blender):
@@ -373,3 +386,16 @@ def test_visibility_passes_through_a_repeat_zone(blender):
     built = g.join([zone["geometry"], g.switch(extra, None, cube)])
     g.output("Geometry", "geometry", zone.close(geometry=built)["geometry"])
     assert str(infer_visibility(g.tree)["size"]) == "extra"
+
+
+def test_bow_in_plan_bends_a_bar_back_in_the_middle_and_keeps_its_ends(blender):
+    def bar(g):
+        line = g.line(g.vec(-0.5, 0.0, 0.0), g.vec(0.5, 0.0, 0.0), count=11)
+        return nodes.bow_in_plan(g, geometry=g.node("GeometryNodeCurveToMesh",
+                                                    {"Curve": line}).out,
+                                 depth=0.1, half_width=0.4)["Geometry"]
+
+    points = _evaluate(bar).vertices
+    x, y = points[:, 0], points[:, 1]
+    assert y == pytest.approx(0.1 * (1.0 - np.minimum(np.abs(x) / 0.4, 1.0) ** 2), abs=1e-6)
+    assert y[np.abs(x) < 1e-6] == pytest.approx(0.1) and y[np.abs(x) >= 0.4].max() == 0.0

@@ -26,8 +26,8 @@ def _vertices(mesh, *labels) -> np.ndarray:
 def test_parameters_cover_the_chair(program):
     names = {p.name for p in program.parameters}
     kinds = [p.kind for p in program.parameters]
-    assert len(names) == 74
-    assert kinds.count("float") == 55 and len(kinds) - kinds.count("float") == 19
+    assert len(names) == 78
+    assert kinds.count("float") == 57 and len(kinds) - kinds.count("float") == 21
     expected = {
         "scale_x", "scale_y", "scale_z", "seat_height", "seat_roundness", "cushion",
         "cushion_fill", "cross_rail_count", "cross_rail_thickness_y", "cross_rail_thickness_z",
@@ -42,6 +42,7 @@ def test_parameters_cover_the_chair(program):
         "rail_bevel", "sled_base", "sled_joined", "casters", "caster_size",
         "side_panels", "side_panel_drop", "stretchers", "stretcher_height",
         "side_panel_thickness", "back_post", "back_post_gap", "apron", "apron_height",
+        "back_wrap", "back_wrap_depth", "back_arch", "back_arch_drop",
     }
     assert expected <= names, expected - names
     for p in program.parameters:
@@ -72,6 +73,9 @@ def test_visibility_rules_are_inferred_from_the_switches(program):
     assert rules["caster_size"] == "casters and monoleg and tent_legs"
     assert rules["apron"] == "not monoleg"
     assert rules["apron_height"] == "apron and not monoleg"
+    assert rules["back_wrap"] is None and rules["back_arch"] is None
+    assert rules["back_wrap_depth"] == "back_wrap"
+    assert rules["back_arch_drop"] == "back_arch"
 
 
 @pytest.mark.parametrize("hidden, change", [
@@ -86,6 +90,8 @@ def test_visibility_rules_are_inferred_from_the_switches(program):
     ({"side_panels": 0}, {"side_panel_drop": 0.0, "side_panel_thickness": 0.125}),
     ({"side_panels": 1}, {"armrest_width": 0.07}),
     ({"back_post": 0}, {"back_post_gap": 0.2}),
+    ({"back_wrap": 0}, {"back_wrap_depth": 0.16}),
+    ({"back_arch": 0}, {"back_arch_drop": 0.4}),
     ({"monoleg": 1}, {"stretchers": 2}),
     ({"stretchers": 0}, {"stretcher_height": 0.5}),
     ({"monoleg": 1}, {"apron": 1}),
@@ -341,6 +347,43 @@ def test_an_apron_joins_the_legs_under_the_seat_as_deep_as_asked(program, label)
         assert np.ptp(rails[:, 0]) > 0.3 and np.ptp(rails[:, 1]) > 0.3
         assert loose_parts(part_mesh(mesh, label.LEGS, label.APRON)) == 0
     assert label.APRON not in program.evaluate({"apron": 0}).metadata["part"]
+
+
+@pytest.mark.parametrize("back", [{"backrest_solid": 1}, {"backrest_solid": 0, "top_rail": 1},
+                                  {"backrest_solid": 0, "vertical_rails": 1, "back_post": 1}])
+def test_a_wrapped_back_curves_in_plan_its_sides_forward_its_middle_back(program, label, back):
+    filling = (label.BACK_PANEL, label.CROSS_RAILS, label.VERTICAL_RAILS, label.TOP_RAIL)
+    flat, wrapped = (program.evaluate({**back, "back_wrap": w, "back_wrap_depth": 0.12})
+                     for w in (0, 1))
+    # the frames (and all that hangs on them) half the depth forward
+    moved = _vertices(wrapped, label.BACK_FRAME) - _vertices(flat, label.BACK_FRAME)
+    assert moved[:, 1] == pytest.approx(-0.06, abs=1e-5)
+    assert np.abs(moved[:, [0, 2]]).max() < 1e-5
+    # the filling's middle half the depth back, above the lowest quarter of the back's rise
+    before, after = _vertices(flat, *filling), _vertices(wrapped, *filling)
+    middle = (np.abs(before[:, 0]) < 0.02) & (before[:, 2] > before[:, 2].min() + 0.15)
+    assert (after - before)[middle, 1] == pytest.approx(0.06, abs=0.01)
+    still = (label.SEAT, label.LEGS)
+    assert np.array_equal(_vertices(flat, *still), _vertices(wrapped, *still))
+    assert loose_parts(wrapped) == 0
+
+
+@pytest.mark.parametrize("back", [{"backrest_solid": 1}, {"backrest_solid": 0, "top_rail": 1},
+                                  {"backrest_solid": 0, "vertical_rails": 1, "armrest_style": 1}])
+def test_an_arched_back_brings_its_top_corners_down_and_keeps_its_middle(program, label, back):
+    base = {**back, "backrest_height": 0.45, "seat_thickness": 0.05, "back_arch_drop": 0.4}
+    flat, arched = (program.evaluate({**base, "back_arch": a}) for a in (0, 1))
+    outer = [f[f[:, 0] > f[:, 0].max() - 1e-4] for f in (_vertices(m, label.BACK_FRAME)
+                                                        for m in (flat, arched))]
+    # the frames' outer top corners come down by the drop x the rise (0.45 + 0.05 / 2)
+    assert outer[0][:, 2].max() - outer[1][:, 2].max() == pytest.approx(0.4 * 0.475, abs=1e-3)
+    flat_top, arched_top = (m.vertices[np.abs(m.vertices[:, 0]) < 0.02, 2].max()
+                            for m in (flat, arched))
+    assert arched_top == pytest.approx(flat_top, abs=2e-3)
+    # nothing under the top half of the back moves: the seat and the legs are as they were
+    still = (label.SEAT, label.LEGS)
+    assert np.array_equal(_vertices(flat, *still), _vertices(arched, *still))
+    assert loose_parts(arched) == 0
 
 
 def test_casters_lift_the_tent_legs_off_the_floor(program, label):

@@ -53,7 +53,7 @@ from geocode.nodes.styles import (
 )
 from geocode.nodes.surfaces import loft
 from geocode.nodes.symmetry import mirror, radial
-from geocode.nodes.utils import align_curve_tilt_to_axis, align_curve_to_start_point
+from geocode.nodes.utils import align_curve_tilt_to_axis, align_curve_to_start_point, bow_in_plan
 
 # Every block, by its node-group name (leg_mesh is "MeshLeg", leg_style "StyleLeg");
 # tests/test_nodes.py checks that it holds every block of the catalogue's modules.
@@ -79,5 +79,5 @@ __all__ = [
     "seat", "straight_frame", "top_rail",
     # shells, surfaces, attachment, symmetry, utils
     "shell", "loft", "sample_curve", "sample_curve_array", "sample_points", "mirror", "radial",
-    "align_curve_tilt_to_axis", "align_curve_to_start_point",
+    "align_curve_tilt_to_axis", "align_curve_to_start_point", "bow_in_plan",
 ]

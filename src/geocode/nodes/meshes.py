@@ -227,7 +227,7 @@ def cross_rail(g: Graph) -> None:
     thickness_z = g.input("Thickness Z", "float", default=0.04, min=0.0)
     roundness = g.input("Roundness", "float", default=0.0, min=0.0, max=1.0)
     label = g.input("Label", "int", default=0, min=0)
-    bar = align_curve_tilt_to_axis(g, curve=_bar_along_x(g, half_length, 2),
+    bar = align_curve_tilt_to_axis(g, curve=_bar_along_x(g, half_length, 9),
                                    axis=(0.0, 0.0, 1.0))["Curve"]
     one = rail(g, curve=bar, profile_curve=_profile(g, thickness_z, thickness_y, roundness),
                radius=1.0, fill_caps=True, label=label)["Mesh"]

@@ -23,13 +23,15 @@ def rectangle_fillet(g: Graph) -> None:
     """Closed rectangle in the XY plane, centred at the origin, whose corners are rounded
     by `Roundness` (0 = sharp rectangle, 1 = fully round: a circle when Width == Height).
 
-    The point count is the same for every roundness (4 corners x (Resolution + 2) points),
-    so sweeps keep their topology while the profile morphs.
+    The point count is the same for every roundness (4 corners x (Resolution + 1) points,
+    and `Cuts` more evenly along each side), so sweeps keep their topology while the profile
+    morphs; the cuts let a sweep of a wide profile (a panel) bend across.
     """
     width = g.input("Width", "float", default=2.0, min=0.0)
     height = g.input("Height", "float", default=2.0, min=0.0)
     roundness = g.input("Roundness", "float", default=0.0, min=0.0, max=1.0)
     resolution = g.input("Resolution", "int", default=6, min=1, max=64)
+    cuts = g.input("Cuts", "int", default=0, min=0, max=64)
     rectangle = g.node("GeometryNodeCurvePrimitiveQuadrilateral",
                        {"Width": width, "Height": height}, mode="RECTANGLE")
     radius = corner_radius(g, roundness, width, height)
@@ -37,4 +39,7 @@ def rectangle_fillet(g: Graph) -> None:
         "Curve": rectangle, "Radius": radius, "Limit Radius": True, "Mode": "Poly",
         "Count": resolution,
     })
-    g.output("Curve", "geometry", fillet)
+    # the last point of each corner starts a side
+    side = g.compare("EQUAL", g.int_math("MODULO", g.index(), resolution + 1), resolution)
+    sides = g.node("GeometryNodeSubdivideCurve", {"Curve": fillet, "Cuts": side * cuts})
+    g.output("Curve", "geometry", sides)

@@ -1,7 +1,7 @@
-"""Utilities that keep curve directions stable while parameters change.
+"""Utilities: blocks that keep curve directions stable while parameters change, and a bend.
 
 Blender picks a curve's direction and normals from its shape, so a small edit can flip
-them; a part swept along such a curve would suddenly turn over. These blocks pin them.
+them; a part swept along such a curve would suddenly turn over. The align blocks pin them.
 """
 
 from __future__ import annotations
@@ -40,3 +40,17 @@ def align_curve_tilt_to_axis(g: Graph) -> None:
         "Curve": curve, "Mode": "Free", "Normal": normal,
     })
     g.output("Curve", "geometry", oriented)
+
+
+@node_group("UtilBowInPlan")
+def bow_in_plan(g: Graph) -> None:
+    """Every point of `Geometry` moved along +Y by `Depth` x (1 - (x / `Half Width`)^2), and
+    not at all beyond |x| = `Half Width`: a part spanning x = -Half Width..Half Width bent into
+    a parabola in plan, its ends in place (they stay joined to whatever holds them). The bend
+    shows only where the part has points across x."""
+    geometry = g.input("Geometry", "geometry")
+    depth = g.input("Depth", "float", default=0.0)
+    half_width = g.input("Half Width", "float", default=0.25, min=1e-6)
+    across = g.min(abs(g.position().x) / half_width, 1.0)
+    offset = g.vec(0.0, depth * (1.0 - across * across), 0.0)
+    g.output("Geometry", "geometry", g.set_position(geometry, offset=offset))
