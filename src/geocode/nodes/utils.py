@@ -46,8 +46,9 @@ def align_curve_tilt_to_axis(g: Graph) -> None:
 def bow_in_plan(g: Graph) -> None:
     """Every point of `Geometry` moved along +Y by `Depth` x (1 - (x / `Half Width`)^2), and
     not at all beyond |x| = `Half Width`: a part spanning x = -Half Width..Half Width bent into
-    a parabola in plan, its ends in place (they stay joined to whatever holds them). The bend
-    shows only where the part has points across x."""
+    a parabola in plan, its ends in place (they stay joined to whatever holds them). `Depth`
+    may be a field (the chair's bow grows with height). The bend shows only where the part
+    has points across x."""
     geometry = g.input("Geometry", "geometry")
     depth = g.input("Depth", "float", default=0.0)
     half_width = g.input("Half Width", "float", default=0.25, min=1e-6)
