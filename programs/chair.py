@@ -31,7 +31,7 @@ overall scale. Structure (every part touches the rest for every parameter combin
 - the chair is scaled per axis and grounded so that its lowest point lies on z = 0.
 Selectors reach the geometry only through Switch / Index Switch nodes, so visibility rules
 are inferred from the graph. In Blender's node editor each piece is a node group: Seat,
-Back Frame, Cushion, Legs, Monoleg, Backrest, Back Post, Armrests.
+Back Frame, Cushion, Legs, Monoleg, Backrest, Back Post, Armrests, Back Arch.
 """
 
 from __future__ import annotations
@@ -596,6 +596,8 @@ def build(g: Graph) -> None:
         right = g.join([legs, c.frame, armrests])
         chair = g.join([c.seat["Mesh"], pillow, mirror(g, geometry=right, axis=0)["Geometry"],
                         monoleg, backrest, post])
-        scaled = g.transform(_arched(c, chair),
-                             scale=g.vec(p["scale_x"], p["scale_y"], p["scale_z"]))
+    with g.group("Back Arch"):
+        arched = _arched(c, chair)
+    with g.frame("Scale"):
+        scaled = g.transform(arched, scale=g.vec(p["scale_x"], p["scale_y"], p["scale_z"]))
         g.output("Geometry", "geometry", g.ground(scaled))
