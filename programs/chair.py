@@ -1,10 +1,11 @@
-"""The chair program (78 parameters: 21 discrete, 57 continuous).
+"""The chair program (79 parameters: 21 discrete, 58 continuous).
 
 Layout: x = width, y = depth (the backrest at +y), z = up; a 0.5 x 0.5 seat before the
 overall scale. Structure (every part touches the rest for every parameter combination):
 - seat: MeshSeat; its `Corner` (the middle of the rounded corner of the outline) is the
   anchor of legs, backrest frame and armrests, so they follow the seat's roundness, and
-  they all start inside the seat slab, so they follow its height;
+  they all start inside the seat slab, so they follow its height; its back can bulge out
+  behind (UtilBowInPlan: a D-shaped seat) without moving them;
 - cushion: MeshCushion sunk a little into the seat's top;
 - legs: four MeshLegs from under the seat corners to z = 0, optionally on a sled base
   (a MeshStraightFrame runner on the floor through each side's feet, the two optionally
@@ -77,6 +78,7 @@ APRON_SHARE = 0.6        # an apron's thickness, in leg thicknesses (within the 
 POST_WIDTH = 2.0         # the back post's width and its yoke's height, in frame widths
 POST_DEPTH = 0.8         # the post's depth, in frame depths (within the yoke's faces)
 PANEL_CUTS = 9           # points along each side of the panel's profile: it can bow
+SEAT_CUTS = 7            # points along each side of the seat's outline: its back can bulge
 WRAP_RISE = 0.25         # a wrapped back's bow grows over this lowest share of its rise
 ARCH_ZONE = 0.5          # an arched back bends in this top share of its rise
 PAD_SINK = 0.3           # share of an armrest pad sunk into its armrest
@@ -94,6 +96,8 @@ def _parameters(g: Graph) -> dict:
     add("seat_thickness", "float", 0.05, 0.03, 0.1, "thickness of the seat slab")
     add("seat_roundness", "float", 0.2, 0.0, 1.0, "seat outline: 0 square, 1 round")
     add("seat_bevel", "float", 0.05, 0.0, 0.2, "rounding of the seat's edges")
+    add("seat_bulge", "float", 0.0, 0.0, 0.15,
+        "how far the seat's back edge bows out behind its middle (a D-shaped seat)")
     add("cushion", "bool", False, 0, 1, "a pillow on the seat")
     add("cushion_thickness", "float", 0.05, 0.02, 0.07, "thickness of the pillow")
     add("cushion_fill", "float", 0.5, 0.0, 1.0, "pillow shape: 0 dome, 1 full")
@@ -153,7 +157,7 @@ def _parameters(g: Graph) -> dict:
     add("vertical_rail_roundness", "float", 0.0, 0.0, 1.0, "vertical rail profile")
     add("top_rail", "bool", True, 0, 1, "a rail across the frames' tops")
     add("top_rail_size", "float", 0.08, 0.04, 0.14, "height of the top rail")
-    add("top_rail_depth", "float", 0.04, 0.02, 0.06, "depth of the top rail")
+    add("top_rail_depth", "float", 0.04, 0.02, 0.12, "depth of the top rail (a crest rail)")
     add("top_rail_roundness", "float", 0.0, 0.0, 1.0, "top rail profile: square to round")
     add("top_rail_fill", "float", 0.0, 0.0, 0.5, "swelling of the top rail's middle")
     # armrests
@@ -182,10 +186,11 @@ class _Chair:
 
     def __init__(self, g: Graph, p: dict):
         self.g, self.p = g, p
-        self.seat = seat(g, width=SEAT_SIZE, depth=SEAT_SIZE, roundness=p["seat_roundness"],
-                         top=p["seat_height"], thickness=p["seat_thickness"],
-                         bevel=p["seat_bevel"], label=SEAT)
-        corner = self.seat["Corner"]
+        slab = seat(g, width=SEAT_SIZE, depth=SEAT_SIZE, roundness=p["seat_roundness"],
+                    cuts=SEAT_CUTS, top=p["seat_height"], thickness=p["seat_thickness"],
+                    bevel=p["seat_bevel"], label=SEAT)
+        self.seat = self.bulged(slab["Mesh"])
+        corner = slab["Corner"]
         self.corner_x = g.named("corner x", corner.x)
         self.corner_y = g.named("corner y", corner.y)
         # attachments start inside the slab: halfway down from its top
@@ -200,6 +205,17 @@ class _Chair:
                                self.corner_y - p["frame_depth"] * 0.5 - self.wrap * 0.5)
         gap = p["back_post_gap"] + p["seat_thickness"] * SINK   # from `inside`
         self.lift = g.named("back lift", g.when(p["back_post"], gap, 0.0))
+
+    def bulged(self, mesh):
+        """`mesh` (the seat or its pillow) with its back half bowed out behind by up to
+        `seat_bulge` in the middle, growing from nothing at y = 0 to all of it at the back
+        edge: a D-shaped seat. The sides (|x| = half the seat) stay, and so does every
+        part attached inside the outline: the seat only grows."""
+        g = self.g
+        half = SEAT_SIZE * 0.5
+        grown = g.clamp(g.position().y / half)
+        return bow_in_plan(g, geometry=mesh, depth=self.p["seat_bulge"] * grown,
+                           half_width=half)["Geometry"]
 
     # -- backrest frame -------------------------------------------------------------------
 
@@ -243,11 +259,11 @@ def _cushion(c: _Chair):
     """When `cushion`: a pillow on the seat's outline, its bottom sunk 20% of the slab."""
     g, p = c.g, c.p
     pillow = cushion_mesh(g, width=SEAT_SIZE * 0.97, depth=SEAT_SIZE * 0.97,
-                          roundness=p["seat_roundness"],
+                          roundness=p["seat_roundness"], cuts=SEAT_CUTS,
                           bottom=p["seat_height"] - p["seat_thickness"] * 0.2,
                           thickness=p["cushion_thickness"], fill=p["cushion_fill"],
                           label=CUSHION)
-    return g.when(p["cushion"], pillow["Mesh"])
+    return g.when(p["cushion"], c.bulged(pillow["Mesh"]))
 
 
 # -- legs -------------------------------------------------------------------------------------
@@ -594,7 +610,7 @@ def build(g: Graph) -> None:
     with g.frame("Assembly"):
         # the right side is mirrored in x; the chair is scaled per axis and then rests on z = 0
         right = g.join([legs, c.frame, armrests])
-        chair = g.join([c.seat["Mesh"], pillow, mirror(g, geometry=right, axis=0)["Geometry"],
+        chair = g.join([c.seat, pillow, mirror(g, geometry=right, axis=0)["Geometry"],
                         monoleg, backrest, post])
     with g.group("Back Arch"):
         arched = _arched(c, chair)

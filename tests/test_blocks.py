@@ -399,3 +399,16 @@ def test_bow_in_plan_bends_a_bar_back_in_the_middle_and_keeps_its_ends(blender):
     x, y = points[:, 0], points[:, 1]
     assert y == pytest.approx(0.1 * (1.0 - np.minimum(np.abs(x) / 0.4, 1.0) ** 2), abs=1e-6)
     assert y[np.abs(x) < 1e-6] == pytest.approx(0.1) and y[np.abs(x) >= 0.4].max() == 0.0
+
+
+def test_seat_cuts_add_points_to_its_outline_and_keep_its_slab(blender):
+    def slab(cuts):
+        return _evaluate(lambda g: nodes.seat(g, width=0.5, depth=0.4, roundness=0.3, cuts=cuts,
+                                              top=0.45, thickness=0.05)["Mesh"])
+
+    plain, cut = slab(0), slab(5)
+    assert len(cut.vertices) > len(plain.vertices)
+    assert cut.bounds == pytest.approx(plain.bounds, abs=1e-4)
+    # the middle of the back edge is a point of the outline now (a bow can move it)
+    back = cut.vertices[np.abs(cut.vertices[:, 1] - 0.2) < 1e-4]
+    assert np.abs(back[:, 0]).min() < 1e-4

@@ -26,8 +26,8 @@ def _vertices(mesh, *labels) -> np.ndarray:
 def test_parameters_cover_the_chair(program):
     names = {p.name for p in program.parameters}
     kinds = [p.kind for p in program.parameters]
-    assert len(names) == 78
-    assert kinds.count("float") == 57 and len(kinds) - kinds.count("float") == 21
+    assert len(names) == 79
+    assert kinds.count("float") == 58 and len(kinds) - kinds.count("float") == 21
     expected = {
         "scale_x", "scale_y", "scale_z", "seat_height", "seat_roundness", "cushion",
         "cushion_fill", "cross_rail_count", "cross_rail_thickness_y", "cross_rail_thickness_z",
@@ -42,7 +42,7 @@ def test_parameters_cover_the_chair(program):
         "rail_bevel", "sled_base", "sled_joined", "casters", "caster_size",
         "side_panels", "side_panel_drop", "stretchers", "stretcher_height",
         "side_panel_thickness", "back_post", "back_post_gap", "apron", "apron_height",
-        "back_wrap", "back_wrap_depth", "back_arch", "back_arch_drop",
+        "back_wrap", "back_wrap_depth", "back_arch", "back_arch_drop", "seat_bulge",
     }
     assert expected <= names, expected - names
     for p in program.parameters:
@@ -366,6 +366,22 @@ def test_a_wrapped_back_curves_in_plan_its_sides_forward_its_middle_back(program
     still = (label.SEAT, label.LEGS)
     assert np.array_equal(_vertices(flat, *still), _vertices(wrapped, *still))
     assert loose_parts(wrapped) == 0
+
+
+@pytest.mark.parametrize("shape", [{}, {"cushion": 1, "seat_roundness": 1.0},
+                                   {"monoleg": 1, "back_post": 1, "apron": 1}])
+def test_a_bulging_seat_grows_out_behind_its_middle_and_moves_nothing_else(program, label, shape):
+    straight, bulged = (program.evaluate({**shape, "seat_bulge": b}) for b in (0.0, 0.15))
+    seat = (label.SEAT, label.CUSHION)
+    before, after = _vertices(straight, *seat), _vertices(bulged, *seat)
+    # the back edge's middle 0.15 further back; the front half and the sides where they were
+    assert after[:, 1].max() - before[:, 1].max() == pytest.approx(0.15, abs=0.01)
+    moved = np.abs(after - before).max(axis=1) > 1e-6
+    assert not moved[before[:, 1] <= 0].any()
+    assert not moved[np.abs(before[:, 0]) >= 0.25 - 1e-6].any()
+    rest = [l for l in np.unique(straight.metadata["part"]) if l not in seat]
+    assert np.array_equal(_vertices(straight, *rest), _vertices(bulged, *rest))
+    assert loose_parts(bulged) == 0
 
 
 @pytest.mark.parametrize("back", [{"backrest_solid": 1}, {"backrest_solid": 0, "top_rail": 1},

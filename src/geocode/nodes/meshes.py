@@ -37,9 +37,9 @@ def _vertical_path(g: Graph, bottom, top, points: int):
     return align_curve_tilt_to_axis(g, curve=path, axis=(1.0, 0.0, 0.0))["Curve"]
 
 
-def _profile(g: Graph, width, depth, roundness, resolution=THIN_RESOLUTION):
+def _profile(g: Graph, width, depth, roundness, resolution=THIN_RESOLUTION, cuts=0):
     return rectangle_fillet(g, width=width, height=depth, roundness=roundness,
-                            resolution=resolution)["Curve"]
+                            resolution=resolution, cuts=cuts)["Curve"]
 
 
 def _frame_along(g: Graph, path) -> None:
@@ -61,19 +61,22 @@ def _frame_along(g: Graph, path) -> None:
 
 
 def _outline_inputs(g: Graph):
-    """`Width`, `Depth` and `Roundness` of a seat's outline (MeshSeat, MeshCushion)."""
+    """`Width`, `Depth`, `Roundness` and `Cuts` of a seat's outline (MeshSeat, MeshCushion):
+    the cuts, points along each side, let the slab bend in plan (UtilBowInPlan)."""
     return (g.input("Width", "float", default=0.5, min=0.0),
             g.input("Depth", "float", default=0.5, min=0.0),
-            g.input("Roundness", "float", default=0.0, min=0.0, max=1.0))
+            g.input("Roundness", "float", default=0.0, min=0.0, max=1.0),
+            g.input("Cuts", "int", default=0, min=0, max=64))
 
 
 def _sweep_outline(g: Graph, style, outline, bottom, top, points: int, **style_inputs) -> None:
     """The last input, `Label`, and the output `Mesh`: the outline swept from z = `bottom`
     up to `top` along `points` points with the `style` group."""
+    width, depth, roundness, cuts = outline
     label = g.input("Label", "int", default=0, min=0)
-    mesh = style(g, curve=_vertical_path(g, bottom, top, points),
-                 profile_curve=_profile(g, *outline, SEAT_RESOLUTION), fill_caps=True,
-                 label=label, **style_inputs)["Mesh"]
+    profile = _profile(g, width, depth, roundness, SEAT_RESOLUTION, cuts)
+    mesh = style(g, curve=_vertical_path(g, bottom, top, points), profile_curve=profile,
+                 fill_caps=True, label=label, **style_inputs)["Mesh"]
     g.output("Mesh", "geometry", mesh)
 
 
@@ -85,7 +88,7 @@ def seat(g: Graph) -> None:
     `Corner` is the attachment point of the +X+Y corner on the outline (z = 0): the
     middle of the rounded corner, which moves inwards as the seat gets rounder, so legs
     and frames placed from it follow the outline."""
-    outline = width, depth, roundness = _outline_inputs(g)
+    outline = width, depth, roundness, _ = _outline_inputs(g)
     top = g.input("Top", "float", default=0.45)
     thickness = g.input("Thickness", "float", default=0.05, min=0.0)
     bevel = g.input("Bevel", "float", default=0.05, min=0.0, max=0.5)
@@ -96,8 +99,8 @@ def seat(g: Graph) -> None:
 
 @node_group("MeshCushion")
 def cushion_mesh(g: Graph) -> None:
-    """A pillow on a seat: the seat's outline (`Width`, `Depth`, `Roundness`) swept up from
-    `Bottom` by `Thickness` with StyleCushion (`Fill`: dome to full pillow)."""
+    """A pillow on a seat: the seat's outline (`Width`, `Depth`, `Roundness`, `Cuts`) swept
+    up from `Bottom` by `Thickness` with StyleCushion (`Fill`: dome to full pillow)."""
     outline = _outline_inputs(g)
     bottom = g.input("Bottom", "float", default=0.45)
     thickness = g.input("Thickness", "float", default=0.05, min=0.0)
