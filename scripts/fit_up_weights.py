@@ -1,6 +1,6 @@
-"""Fit or measure `geocode.pose.up_axis` on program shapes (needs bpy).
+"""Fit or measure `geocode.reconstruct.pose.up_axis` on program shapes (needs bpy).
 
-    python scripts/fit_up_weights.py fit        # prints WEIGHTS for geocode/pose.py
+    python scripts/fit_up_weights.py fit        # prints WEIGHTS for geocode/reconstruct/pose.py
     python scripts/fit_up_weights.py measure    # accuracy on fresh shapes, 6 up directions
     python scripts/fit_up_weights.py measure turned   # the same, each also turned about its up
     python scripts/fit_up_weights.py real DIR   # accuracy on DIR/<domain>/<file> (README's up)
@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 from scipy.optimize import minimize
 
-from geocode import inputs, pose
+from geocode.reconstruct import inputs, pose
 
 DOMAINS = ("chair", "vase", "table", "ceiling_lamp", "cabinet")
 KINDS = ("clean", "crop", "noise", "all")

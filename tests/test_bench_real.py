@@ -68,7 +68,7 @@ def test_span_finds_a_shape_standing_half_a_quarter_turn_off():
     degrees of turn cannot reach it; the span judges reconstruct's eight turns (12 forms of
     the table each) before its search."""
     from geocode.bench.span import span_fit
-    from geocode.fit import shape_points, turn_about_z
+    from geocode.reconstruct.fit import shape_points, turn_about_z
 
     program = Program.load("table")
     target = turn_about_z(shape_points(program, program.check({}), 4096), math.pi / 4)
@@ -80,7 +80,7 @@ def test_short_fits_rank_the_starts_by_where_they_end_within_their_budget(monkey
     """Each round fits the best starts briefly and ranks them by where they end; the next round
     starts from those ends; the evaluations stay within the budget."""
     import geocode.bench.span as span
-    from geocode.fit import shape_points
+    from geocode.reconstruct.fit import shape_points
 
     program = Program.load("table")
     recipe = program.recipe()

@@ -1,5 +1,5 @@
-"""The fit (`geocode.fit`): its distance, its pose search and its restarts; and the nearest
-training shape (`geocode.retrieval`), on shapes made here."""
+"""The fit (`geocode.reconstruct.fit`): its distance, its pose search and its restarts; and the nearest
+training shape (`geocode.reconstruct.retrieval`), on shapes made here."""
 
 import math
 
@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from geocode.fit import CloudDistance, Pose, Start, trimmed_mean
+from geocode.reconstruct.fit import CloudDistance, Pose, Start, trimmed_mean
 from geocode.points import sample_surface
 
 
@@ -60,13 +60,13 @@ class TestFitOnAProgram:
         return program, program.recipe()
 
     def target(self, vase, pose: Pose) -> np.ndarray:
-        from geocode.fit import shape_points
+        from geocode.reconstruct.fit import shape_points
 
         program, _ = vase
         return pose.apply(shape_points(program, self.SHAPE, 3000))
 
     def test_the_pose_of_a_turned_scaled_moved_shape_is_found(self, vase):
-        from geocode.fit import fit, shape_points
+        from geocode.reconstruct.fit import fit, shape_points
 
         program, recipe = vase
         truth = Pose(turn=0.3, scale=0.9, offset=(0.05, 0.0, -0.04))
@@ -80,7 +80,7 @@ class TestFitOnAProgram:
     def test_helper_processes_give_the_same_fit(self, vase):
         """Candidates scored in a helper process (its own Blender) beside this one: the same
         distances in the same order, so the same fit."""
-        from geocode.fit import fit
+        from geocode.reconstruct.fit import fit
 
         program, recipe = vase
         target = self.target(vase, Pose(turn=0.2, scale=0.95))
@@ -91,7 +91,7 @@ class TestFitOnAProgram:
     def test_sweeps_correct_one_parameter_exactly(self, vase):
         """A start one sweep step off in one parameter: the first sweep moves it back, where
         CMA-ES alone, moving all of them at once, comes only near in as many evaluations."""
-        import geocode.fit as fitting
+        import geocode.reconstruct.fit as fitting
 
         program, recipe = vase
         height = next(p for p in recipe.parameters if p.name == "body_height")   # swept first
@@ -111,7 +111,7 @@ class TestFitOnAProgram:
         assert swept < 1e-9 and alone > 0.01
 
     def test_restarts_begin_at_the_best_scored_start(self, vase):
-        from geocode.fit import fit
+        from geocode.reconstruct.fit import fit
 
         program, recipe = vase
         target = self.target(vase, Pose(turn=math.pi / 2))
@@ -127,7 +127,7 @@ def test_the_nearest_training_shape_is_found_at_its_turn(tmp_path):
     from geocode.meshio import normalise_unit_sphere, write_obj
     from geocode.points import save_clouds
     from geocode.program import Program
-    from geocode.retrieval import TrainingShapes, turned
+    from geocode.reconstruct.retrieval import TrainingShapes, turned
 
     program = Program.load("vase")
     split = tmp_path / "train"
@@ -175,7 +175,7 @@ def test_cloud_feedback_cancels_a_reading_biased_alike_on_every_cloud():
     the answer's turn; the input is seen turned back by the start's turn."""
     from types import SimpleNamespace
 
-    from geocode.fit import cloud_feedback, shape_points, turn_about_z
+    from geocode.reconstruct.fit import cloud_feedback, shape_points, turn_about_z
 
     slab, points_cfg = Slab(), SimpleNamespace(fps=256, train_random=128)
 
@@ -197,7 +197,7 @@ def test_readings_apart_by_rounding_give_the_same_feedback_rounds():
     """Two readings of one input 1e-7 apart (the input turned, its canonical cloud rounded
     differently) give bit-identical rounds: each round's values are snapped to SNAP of the
     range, where the feedback would otherwise carry (and with a network, grow) the gap."""
-    from geocode.fit import SNAP, network_feedback, shape_points, snapped
+    from geocode.reconstruct.fit import SNAP, network_feedback, shape_points, snapped
 
     slab = Slab()
     width = snapped(slab, {"width": 1.0123456})["width"]    # range 0.4..1.6: a grid of 0.0012
@@ -221,7 +221,7 @@ def test_sweeps_spend_no_evaluation_on_what_the_shape_hides():
     Without arms the sweeps move neither; with arms they try both."""
     from types import SimpleNamespace
 
-    from geocode.fit import SearchSpace, sweep_continuous, sweep_discrete
+    from geocode.reconstruct.fit import SearchSpace, sweep_continuous, sweep_discrete
 
     def param(name, kind, lo=0.0, hi=1.0):
         return SimpleNamespace(name=name, kind=kind, min=lo, max=hi)

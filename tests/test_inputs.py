@@ -1,13 +1,13 @@
-"""geocode.inputs on files made here: every format, clouds with headers, scenes, size bounds,
+"""geocode.reconstruct.inputs on files made here: every format, clouds with headers, scenes, size bounds,
 and the one-line refusals."""
 
 import numpy as np
 import pytest
 import trimesh
 
-from geocode import inputs
+from geocode.reconstruct import inputs
 from geocode.errors import UserError
-from geocode.inputs import keep_main_object, read_geometry, surface_points
+from geocode.reconstruct.inputs import keep_main_object, read_geometry, surface_points
 
 
 def stool():

@@ -11,7 +11,9 @@ SRC = Path(__file__).resolve().parents[1] / "src"
 PACKAGE = "geocode"
 # The layers above the core, lowest first; every other module is the core (errors, config,
 # recipe, points, ..., and the bpy side: nodes/, program, blender/; the networks: models/).
-LAYERS = ("steps", "tools", "bench", "cli")
+# The product's two halves: reconstruct/ (users' shapes -> programs; the evaluation step fits
+# with it too) and steps/ (the workflow's stages).
+LAYERS = ("reconstruct", "steps", "tools", "bench", "cli")
 # The steps in the workflow's order: a step may import the steps before it, never one after.
 STEPS = ("dataset", "train_data", "train", "evaluate", "tables", "report")
 

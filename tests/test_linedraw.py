@@ -1,4 +1,4 @@
-"""The numpy line renderer (`geocode.linedraw`): its camera, z-buffer and edges on shapes
+"""The numpy line renderer (`geocode.reconstruct.linedraw`): its camera, z-buffer and edges on shapes
 whose drawing is known, its agreement with Freestyle, and the drawing distance."""
 
 from __future__ import annotations
@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 import trimesh
 
-from geocode import linedraw
-from geocode.linedraw import (
+from geocode.reconstruct import linedraw
+from geocode.reconstruct.linedraw import (
     Outline,
     View,
     drawing_distance,

@@ -1,4 +1,4 @@
-"""The results page of a folder run (geocode.page): files written, what the HTML and CSV say,
+"""The results page of a folder run (geocode.reconstruct.page): files written, what the HTML and CSV say,
 reruns, failed inputs, and (with bpy) pictures of input and result in one frame."""
 
 import csv
@@ -13,7 +13,7 @@ import pytest
 import trimesh
 from PIL import Image
 
-from geocode.page import (
+from geocode.reconstruct.page import (
     CLOUD_POINTS,
     Candidate,
     Entry,

@@ -1,4 +1,4 @@
-"""geocode.pose: axis rotations, turns, normalisation, the 4x4 transform and its inverse, and
+"""geocode.reconstruct.pose: axis rotations, turns, normalisation, the 4x4 transform and its inverse, and
 the up axis found on program shapes turned every way (accuracy per domain: see the numbers
 that scripts/fit_up_weights.py measure prints; the thresholds here sit below them)."""
 
@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from geocode import pose
+from geocode.reconstruct import pose
 from geocode.errors import UserError
 
 
@@ -128,7 +128,7 @@ def test_up_axis_on_program_shapes_turned_every_way(domain):
 def test_a_mesh_is_normalised_by_its_vertices_as_the_dataset_is():
     import trimesh
 
-    from geocode.inputs import Geometry, surface_points
+    from geocode.reconstruct.inputs import Geometry, surface_points
     from geocode.meshio import normalise_unit_sphere
 
     mesh = trimesh.creation.box((0.4, 0.6, 1.0)).apply_translation((3, 4, 5))
@@ -164,7 +164,7 @@ def test_a_mesh_is_levelled_by_its_faces_exactly():
     one's frame to float precision (normals estimated from samples leave up to 2 degrees)."""
     import trimesh
 
-    from geocode.inputs import Geometry, surface_points
+    from geocode.reconstruct.inputs import Geometry, surface_points
 
     shape = trimesh.util.concatenate([trimesh.creation.box((0.6, 1.2, 0.1)),
                                       trimesh.creation.box((0.1, 0.1, 1.0)).apply_translation((0.25, 0.5, -0.5)),

@@ -15,12 +15,12 @@ from scipy import ndimage
 pytest.importorskip("bpy")
 
 from geocode.cli import main  # noqa: E402
-from geocode.fit import CloudDistance, Start, fit, shape_points  # noqa: E402
+from geocode.reconstruct.fit import CloudDistance, Start, fit, shape_points  # noqa: E402
 from geocode.meshio import normalise_unit_sphere  # noqa: E402
-from geocode.page import SIZE  # noqa: E402
+from geocode.reconstruct.page import SIZE  # noqa: E402
 from geocode.points import sample_surface  # noqa: E402
 from geocode.program import Program  # noqa: E402
-from geocode.tools.reconstruct import SKETCH_EXTENT, sketch_from_image  # noqa: E402
+from geocode.reconstruct.run import SKETCH_EXTENT, sketch_from_image  # noqa: E402
 
 pytestmark = pytest.mark.blender
 SHAPE = {"body_height": 1.2, "handle_count": 2, "belly_width": 0.6}
@@ -149,8 +149,8 @@ def test_a_folder_is_reconstructed_with_a_page(files, tmp_path, capsys):
 
 def test_a_y_up_file_comes_to_the_same_frame_as_a_z_up_one(files):
     from geocode.config import compose
-    from geocode.inputs import read_geometry
-    from geocode.tools.reconstruct import Reconstructor
+    from geocode.reconstruct.inputs import read_geometry
+    from geocode.reconstruct.run import Reconstructor
 
     run = Reconstructor(compose(["domain=vase"]), "vase", files["ckpt"], refine=0, up="y")
     glb = run.frames(read_geometry(files["root"] / "vase.glb"))[0].samples
@@ -163,9 +163,9 @@ def test_the_network_answer_is_the_nearest_of_its_feedback_rounds(files):
     """--refine 0: the network's answer at its best turn, or one of its own feedback rounds
     where that lies nearer the input: never farther than the answer it started from."""
     from geocode.config import compose
-    from geocode.fit import network_starts
-    from geocode.inputs import read_geometry
-    from geocode.tools.reconstruct import TURNS, Reconstructor, s_pose
+    from geocode.reconstruct.fit import network_starts
+    from geocode.reconstruct.inputs import read_geometry
+    from geocode.reconstruct.run import TURNS, Reconstructor, s_pose
 
     run = Reconstructor(compose(["domain=vase"]), "vase", files["ckpt"], refine=0, up="z")
     result = run(files["root"] / "vase.obj")

@@ -1,4 +1,4 @@
-"""The fit to a drawing (`geocode.sketchfit`): its camera coordinates and framing, and the
+"""The fit to a drawing (`geocode.reconstruct.sketchfit`): its camera coordinates and framing, and the
 search recovering a known camera and parameter from drawings rendered by `linedraw`."""
 
 from __future__ import annotations
@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 import trimesh
 
-from geocode.fit import Start
-from geocode.linedraw import (
+from geocode.reconstruct.fit import Start
+from geocode.reconstruct.linedraw import (
     DrawingDistance,
     Outline,
     View,
@@ -22,7 +22,7 @@ from geocode.linedraw import (
 from geocode.meshio import normalise_unit_sphere
 from geocode.program import Program
 from geocode.recipe import Parameter
-from geocode.sketchfit import (
+from geocode.reconstruct.sketchfit import (
     CameraSpace,
     Shapes,
     bounding_box,
@@ -158,7 +158,7 @@ def test_fit_answers_the_branch_whose_search_ends_nearest(monkeypatch):
     """Three branches of the box count, each searched on a third of the budget: the answer is
     the branch that ends nearest the drawing (count 2 here), `before` is the network's own
     choice's, and the curve runs over all three searches."""
-    import geocode.sketchfit as sketchfit
+    import geocode.reconstruct.sketchfit as sketchfit
 
     plan, openings = [], []
     monkeypatch.setattr(sketchfit, "finish_search", fake_finish({(1.0, True): 2.0, (2.0, True): 0.5, (3.0, True): 1.5}, plan))
@@ -177,7 +177,7 @@ def test_two_orders_search_each_branch_with_its_switches_judged_before_and_after
     sweep before and then after each continuous sweep; the answer is the search that ends
     nearest, here the second order of the second branch. A budget too small for two searches
     keeps one order, and with both orders one branch comes before a second."""
-    import geocode.sketchfit as sketchfit
+    import geocode.reconstruct.sketchfit as sketchfit
 
     sweeps, plan = [], []
     monkeypatch.setattr(sketchfit, "sweep_discrete", lambda obj, space, x, f, budget: (sweeps.append("d"), (x, f))[1])
@@ -311,7 +311,7 @@ def test_helper_processes_give_the_same_drawing_fit(program):
 def test_freestyle_drawing_follows_the_view(blender):
     """Freestyle's drawing, rolled, scaled and shifted in the image, lies within a pixel of
     linedraw's from the same view (and far from the unmoved one)."""
-    from geocode.sketchfit import freestyle_drawing
+    from geocode.reconstruct.sketchfit import freestyle_drawing
 
     mesh = normalise_unit_sphere(BOXES.evaluate({"width": 1.2, "depth": 0.7, "count": 2.0}))
     view = View(40.0, 25.0, 8.0, 1.2, (6.0, -4.0))

@@ -341,7 +341,7 @@ def parse_values(tokens: list[str]) -> dict[str, float]:
 
 
 def cmd_reconstruct(args):
-    from geocode.tools.reconstruct import reconstruct
+    from geocode.reconstruct.run import reconstruct
 
     cfg = step_config(args, f"domain={args.domain}")
     return reconstruct(cfg, args.domain, args.input, args.output, checkpoint=args.checkpoint,
@@ -350,6 +350,7 @@ def cmd_reconstruct(args):
 
 
 def cmd_mix(args):
+    from geocode.blender.export import write_shape
     from geocode.outputs import Outputs
     from geocode.program import Program
     from geocode.tools import editing
@@ -359,11 +360,12 @@ def cmd_mix(args):
         program = Program.load(args.domain)
         a, b = (editing.read_values(path, program) for path in (args.a, args.b))
         take = editing.select(program, args.take)
-        editing.write_shape(obj, shape_file, program, editing.mix(a, b, take))
+        write_shape(obj, shape_file, program, editing.mix(a, b, take))
     return f"wrote {args.output} ({len(take)} parameters from {args.b.name}: {', '.join(take)})"
 
 
 def cmd_interpolate(args):
+    from geocode.blender.export import write_shape
     from geocode.blender.gallery import render_strip
     from geocode.outputs import Outputs
     from geocode.program import Program
@@ -376,7 +378,7 @@ def cmd_interpolate(args):
         program = Program.load(args.domain)
         a, b = (editing.read_values(path, program) for path in (args.a, args.b))
         sequence = editing.interpolate(program, a, b, args.steps)
-        meshes = [editing.write_shape(obj, yaml, program, values)
+        meshes = [write_shape(obj, yaml, program, values)
                   for (obj, yaml), values in zip(files, sequence, strict=True)]
         render_strip(meshes, strip)
     return f"wrote {len(meshes)} shapes and strip.png to {args.output}"

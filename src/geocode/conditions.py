@@ -3,8 +3,8 @@
 Clean point clouds, sketches from each camera, noisy and sparse clouds, and point clouds and
 sketches of simplified test meshes (source `s<factor>`). The conditions named in `eval.fit`
 come twice: as predicted, and as fitted (`<condition>-fit`, modality "pc+fit" or
-"sketch+fit": the prediction refined against its input, the cloud by `geocode.fit`, the
-sketch by `geocode.sketchfit`).
+"sketch+fit": the prediction refined against its input, the cloud by `geocode.reconstruct.fit`, the
+sketch by `geocode.reconstruct.sketchfit`).
 """
 
 from __future__ import annotations
@@ -12,8 +12,8 @@ from __future__ import annotations
 from omegaconf import DictConfig
 
 MODALITY_NAMES = {"points": "pc", "sketch": "sketch"}  # the model's inputs -> metrics' modality
-FITTED = "pc+fit"       # the modality of a cloud's prediction refined by `geocode.fit`
-SKETCH_FITTED = "sketch+fit"   # ... of a sketch's, refined by `geocode.sketchfit`
+FITTED = "pc+fit"       # the modality of a cloud's prediction refined by `geocode.reconstruct.fit`
+SKETCH_FITTED = "sketch+fit"   # ... of a sketch's, refined by `geocode.reconstruct.sketchfit`
 FITS = {"pc": FITTED, "sketch": SKETCH_FITTED}   # modality -> its fitted modality
 
 

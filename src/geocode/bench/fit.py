@@ -9,7 +9,7 @@ import numpy as np
 from geocode import paths
 from geocode.checkpoints import default_checkpoint, load_model, ranked_prediction
 from geocode.conditions import conditions
-from geocode.fit import Start, fit
+from geocode.reconstruct.fit import Start, fit
 from geocode.meshio import read_obj
 from geocode.metrics import chamfer_meshes
 from geocode.program import Program

@@ -10,7 +10,7 @@ directions / 2):
                feedback (the nearest of its rounds), in the pose the tool found; no search
     fit        network + fit, in the pose the tool found
     defaults   the program's default shape, at the best of four quarter-turns
-    nearest    the nearest training shape (`geocode.retrieval`), at the best of four quarter-turns
+    nearest    the nearest training shape (`geocode.reconstruct.retrieval`), at the best of four quarter-turns
 
 With `out`, each file's outputs are written as `geocode reconstruct -o` writes them (result
 .yaml/.obj/.blend, pictures), with a page per domain (`<out>/<domain>/index.html`), and the
@@ -32,7 +32,7 @@ from pathlib import Path
 import yaml
 
 from geocode.errors import UserError
-from geocode.fit import Pose
+from geocode.reconstruct.fit import Pose
 
 QUARTER_TURNS = [Pose(turn=k * math.pi / 2) for k in range(4)]
 
@@ -58,9 +58,9 @@ def bench_real(overrides: list[str], folder: Path, up_truth: Path | None = None,
                budget: int | None = None, out: Path | None = None) -> dict:
     """Per domain subfolder: the medians of the four distances, their ratios to the nearest
     training shape, seconds per shape and how often the up axis found is the true one."""
-    from geocode import page
+    from geocode.reconstruct import page
     from geocode.config import compose, registry
-    from geocode.tools.reconstruct import PAGE_NOTE, SUFFIXES, Reconstructor
+    from geocode.reconstruct.run import PAGE_NOTE, SUFFIXES, Reconstructor
 
     folder, table = Path(folder), read_up_truth(up_truth)
     domains = [d for d in registry() if (folder / d).is_dir()]
@@ -93,7 +93,7 @@ def record(checkpoint: Path, numbers: dict) -> None:
 
 def score_file(run, path: Path, truth: str | None, out: Path | None = None) -> tuple[dict, object]:
     """One file's scores, and its page entry where its outputs are written to `out`."""
-    from geocode.tools.reconstruct import write_outputs
+    from geocode.reconstruct.run import write_outputs
 
     started = time.perf_counter()
     result = run(path)
@@ -159,7 +159,7 @@ def bench_turns(overrides: list[str], domain: str, n: int = 10, budget: int | No
     from geocode.config import compose
     from geocode.meshio import read_obj
     from geocode.steps.evaluate import test_ids
-    from geocode.tools.reconstruct import Reconstructor
+    from geocode.reconstruct.run import Reconstructor
 
     cfg = compose([*overrides, f"domain={domain}"])
     run = Reconstructor(cfg, domain, refine=budget)

@@ -1,5 +1,5 @@
 """Fitting to drawings (`geocode bench fit <domain> --modality sketch`): the trained joint
-model's predictions on a run's test sketches, fitted to the sketch (`geocode.sketchfit`), and
+model's predictions on a run's test sketches, fitted to the sketch (`geocode.reconstruct.sketchfit`), and
 measured against the ground truth."""
 
 from __future__ import annotations
@@ -13,11 +13,11 @@ import numpy as np
 from geocode import paths
 from geocode.checkpoints import default_checkpoint, load_model, ranked_prediction, reader
 from geocode.config import sketch_fit_budget, sketch_fit_searches
-from geocode.fit import Start
+from geocode.reconstruct.fit import Start
 from geocode.meshio import read_obj
 from geocode.metrics import chamfer_meshes
 from geocode.program import Program
-from geocode.sketchfit import fit_drawing, mean_curve
+from geocode.reconstruct.sketchfit import fit_drawing, mean_curve
 from geocode.steps.evaluate import test_ids
 from geocode.steps.train_data import load_sketch
 
@@ -79,9 +79,9 @@ def renderer_agreement(domains: Sequence[str], n: int, seed: int = 0) -> dict:
     from pathlib import Path
 
     from geocode.blender.sketch import Camera, renderer
-    from geocode.linedraw import Outline, View, drawing_distance, strokes
+    from geocode.reconstruct.linedraw import Outline, View, drawing_distance, strokes
     from geocode.meshio import normalise_unit_sphere
-    from geocode.sketchfit import CAMERA_GUESSES
+    from geocode.reconstruct.sketchfit import CAMERA_GUESSES
 
     freestyle = renderer()
     out = {}

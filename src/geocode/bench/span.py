@@ -1,6 +1,6 @@
 """`geocode bench span <domain> <folder>`: how near a program can come to real shapes at all.
 
-No network: for each mesh of the folder, a long fit (`geocode.fit`, default SPAN_BUDGET
+No network: for each mesh of the folder, a long fit (`geocode.reconstruct.fit`, default SPAN_BUDGET
 evaluations) from the program's defaults and from the defaults with one discrete parameter
 switched to each of its other values (a sled base, side panels, an open row: a form one switch
 away is a start of its own, not a long step of the search), each at the turns about the up
@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from geocode.errors import UserError
-from geocode.fit import Start, fit
+from geocode.reconstruct.fit import Start, fit
 
 SPAN_BUDGET = 2000
 POOL = 200   # random shapes of the program, each a start (one evaluation)
@@ -62,7 +62,7 @@ def span_fit(program, recipe, target: np.ndarray, budget: int, seed: int):
     the best: `budget` evaluations in all. A turn judged by the defaults alone can be lost to a
     form they lack: a long coffee table's turn went to a diagonal, from which its fit never
     came back (docs/wild.md, The programs' reach)."""
-    from geocode.tools.reconstruct import TURNS
+    from geocode.reconstruct.run import TURNS
 
     defaults, options = program.check({}), all_options(recipe)
     forms = [start_at(defaults, options, 0.0), *switch_starts(defaults, options, 0.0)]
@@ -109,11 +109,11 @@ def judged_by_short_fits(program, recipe, starts: list[Start], target: np.ndarra
 
 def bench_span(overrides: list[str], domain: str, folder: Path, budget: int | None = None,
                up_truth: Path | None = None, out: Path | None = None) -> dict:
-    from geocode import page
+    from geocode.reconstruct import page
     from geocode.bench.real import read_up_truth, true_up
     from geocode.config import compose
-    from geocode.inputs import read_geometry
-    from geocode.tools.reconstruct import (
+    from geocode.reconstruct.inputs import read_geometry
+    from geocode.reconstruct.run import (
         SUFFIXES,
         Answer,
         Reconstruction,

@@ -51,6 +51,15 @@ def typed(parameters, values: Mapping[str, float]) -> dict:
     return {k: cast.get(kinds.get(k), float)(v) for k, v in values.items()}
 
 
+def write_shape(obj: Path, values_file: Path, program, values: Mapping[str, float]):
+    """The program's mesh (unit sphere) to the OBJ `obj` and the values to the YAML
+    `values_file`, each written atomically; returns the mesh."""
+    mesh = unit_mesh(program, values)
+    meshio.write_text(values_file, yaml.safe_dump(typed(program.parameters, values), sort_keys=False))
+    meshio.write_obj(obj, mesh)
+    return mesh
+
+
 def part_labels(mesh) -> np.ndarray:
     parts = np.asarray(mesh.metadata.get("part", ()))
     if parts.shape != (len(mesh.faces),):

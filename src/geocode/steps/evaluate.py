@@ -2,7 +2,7 @@
 (docs/paper-numbers.md#evaluation and #robustness).
 
 Each model is tested on the inputs of every condition (`geocode.conditions`); the fitted
-conditions' predictions are refined by `geocode.fit` in the rebuild step, which has the
+conditions' predictions are refined by `geocode.reconstruct.fit` in the rebuild step, which has the
 program at hand. A simplified copy of the test split lives beside it as the split `test-s<factor>`, so the
 ordinary sketch and points stages make its inputs.
 """
@@ -213,10 +213,10 @@ def rebuild_step(cfg: DictConfig, domain: str, predictions: Path, shard: int) ->
 def fit_prediction(cfg: DictConfig, domain: str, program, recipe, row: dict, values: dict,
                    read=None) -> tuple[dict, dict]:
     """(fitted values, the fit's record) of one prediction of a fitted condition: a cloud's
-    by `geocode.fit` (eval.fit_budget), a sketch's by `geocode.sketchfit` (its distances in
+    by `geocode.reconstruct.fit` (eval.fit_budget), a sketch's by `geocode.reconstruct.sketchfit` (its distances in
     px; `config.sketch_fit_budget`; `read`: the model's `checkpoints.reader`)."""
-    from geocode.fit import Start, fit
-    from geocode.sketchfit import fit_drawing
+    from geocode.reconstruct.fit import Start, fit
+    from geocode.reconstruct.sketchfit import fit_drawing
 
     kind, target = model_input(cfg, domain, unfitted(row), row["id"])
     start = [Start(values, json.loads(row[OPTIONS]))]
@@ -237,8 +237,8 @@ NEAREST = "nearest"   # the retrieval baseline's condition and modality
 
 def nearest_rows(cfg: DictConfig, domain: str, gt_meshes: dict) -> list[dict]:
     """The retrieval baseline: each test shape's distance to the nearest training shape
-    (`geocode.retrieval`: plain Chamfer, best of four quarter-turns)."""
-    from geocode.retrieval import TrainingShapes
+    (`geocode.reconstruct.retrieval`: plain Chamfer, best of four quarter-turns)."""
+    from geocode.reconstruct.retrieval import TrainingShapes
 
     start = time.perf_counter()
     shapes = TrainingShapes.from_split(paths.split_dir(cfg, domain, "train"))

@@ -71,15 +71,3 @@ def interpolate(program, a: Mapping[str, float], b: Mapping[str, float],
             else (a[name] if t < 0.5 else b[name])
             for name in a})
     return sequence
-
-
-def write_shape(obj: Path, values_file: Path, program, values: Mapping[str, float]):
-    """The program's mesh (unit sphere) to the OBJ `obj` and the values to the YAML
-    `values_file`, each written atomically; returns the mesh."""
-    from geocode.blender.export import typed, unit_mesh
-    from geocode.meshio import write_obj, write_text
-
-    mesh = unit_mesh(program, values)
-    write_text(values_file, yaml.safe_dump(typed(program.parameters, values), sort_keys=False))
-    write_obj(obj, mesh)
-    return mesh

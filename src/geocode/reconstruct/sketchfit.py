@@ -1,8 +1,8 @@
 """Fit a program to a drawing: search its parameters and the camera for the shape whose line
-drawing (`geocode.linedraw`, a numpy stand-in for the dataset's Freestyle sketches, within
+drawing (`geocode.reconstruct.linedraw`, a numpy stand-in for the dataset's Freestyle sketches, within
 ~0.2 px of them) is nearest the drawing's strokes (`linedraw.drawing_distance`).
 
-The search space is `geocode.fit`'s unit box over the recipe's parameters (continuous over
+The search space is `geocode.reconstruct.fit`'s unit box over the recipe's parameters (continuous over
 their range, discrete among the network's top choices) plus six camera coordinates:
 azimuth within AZIMUTH_SPAN degrees of its start (the starts go all around), elevation over
 0..MAX_ELEVATION degrees (free-hand drawings are often frontal or side views), roll within
@@ -62,7 +62,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from geocode.fit import (
+from geocode.reconstruct.fit import (
     SearchSpace,
     Start,
     cma_search,
@@ -73,7 +73,7 @@ from geocode.fit import (
     sweep_continuous,
     sweep_discrete,
 )
-from geocode.linedraw import SIZE, DrawingDistance, Outline, View, stroke_mask, strokes
+from geocode.reconstruct.linedraw import SIZE, DrawingDistance, Outline, View, stroke_mask, strokes
 from geocode.meshio import normalise_unit_sphere
 
 # (azimuth, elevation) degrees: the dataset's trained views and their mirror images, views

@@ -1,7 +1,7 @@
 """A fast line drawing of a mesh, as the dataset's Freestyle sketches look, and a distance
 between two drawings; pure numpy (and scipy's distance transform), no Blender.
 
-The fit to a drawing (`geocode.sketchfit`) renders hundreds of candidate shapes, and
+The fit to a drawing (`geocode.reconstruct.sketchfit`) renders hundreds of candidate shapes, and
 Freestyle takes ~0.1-0.4 s a view; this renderer takes a few milliseconds. It reproduces
 what `geocode.blender.sketch.SketchRenderer` draws:
 

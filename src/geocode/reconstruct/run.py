@@ -2,18 +2,18 @@
 parameters, its mesh (in the program's frame and back over the input), an editable .blend,
 and a page of every input beside its result.
 
-A mesh or cloud (any file `geocode.inputs` reads) is brought to the training data's frame:
-its up axis found (`--up auto`, `geocode.pose`; with auto, the two likeliest axes are both
+A mesh or cloud (any file `geocode.reconstruct.inputs` reads) is brought to the training data's frame:
+its up axis found (`--up auto`, `geocode.reconstruct.pose`; with auto, the two likeliest axes are both
 tried), centred and scaled to the unit sphere, and sampled as the dataset's clouds are. The
 network then sees it at TURNS turns about its up axis in one batch (the front of a real shape
 is anyone's guess), and its answer at the turn nearest the input is corrected by its own
 feedback (`fit.cloud_feedback`); the nearest of those rounds is the network's answer (all of
 `--refine 0`). Its answers, its feedback rounds and the nearest training shapes are the
-starts of `geocode.fit`, which scores every start and searches the program's parameters and
+starts of `geocode.reconstruct.fit`, which scores every start and searches the program's parameters and
 the shape's pose from the best.
 A drawing of any size and stroke width is cropped to its strokes, scaled to the sketches'
 extent, its strokes thinned or thickened to theirs (2 px), and binarised onto a 224x224 white
-canvas; the network answers it, and `geocode.sketchfit` searches the parameters and the camera
+canvas; the network answers it, and `geocode.reconstruct.sketchfit` searches the parameters and the camera
 for the shape whose line drawing is nearest its strokes (docs/wild.md, Drawings).
 """
 
@@ -32,9 +32,9 @@ import yaml
 from PIL import Image
 from scipy import ndimage
 
-from geocode import pose as poses
+from geocode.reconstruct import pose as poses
 from geocode.errors import UserError
-from geocode.fit import (
+from geocode.reconstruct.fit import (
     RESTARTS,
     CloudDistance,
     FitResult,
@@ -46,7 +46,7 @@ from geocode.fit import (
     network_starts,
     shape_points,
 )
-from geocode.inputs import CLOUD_SUFFIXES, MESH_SUFFIXES, Geometry, read_geometry, surface_points
+from geocode.reconstruct.inputs import CLOUD_SUFFIXES, MESH_SUFFIXES, Geometry, read_geometry, surface_points
 from geocode.meshio import normalise_unit_sphere
 from geocode.points import network_cloud
 
@@ -194,8 +194,8 @@ class Reconstructor:
         the parameters and the camera; both scored by Freestyle's drawing of them."""
         from geocode.checkpoints import ranked_prediction, reader
         from geocode.config import sketch_fit_budget, sketch_fit_searches
-        from geocode.linedraw import drawing_distance
-        from geocode.sketchfit import fit_drawing, freestyle_drawing
+        from geocode.reconstruct.linedraw import drawing_distance
+        from geocode.reconstruct.sketchfit import fit_drawing, freestyle_drawing
 
         sketch = sketch_from_image(path)
         values, options = ranked_prediction(self.model, self.recipe, "sketch", sketch, self.cfg.eval.decode)
@@ -328,7 +328,7 @@ def distinct_answers(answers: list[Answer], k: int) -> list[Answer]:
 
 def training_shapes(split_dir: Path):
     """The run's training shapes for retrieval, or None (with a line) where there are none."""
-    from geocode.retrieval import TrainingShapes
+    from geocode.reconstruct.retrieval import TrainingShapes
 
     try:
         return TrainingShapes.from_split(split_dir)
@@ -360,7 +360,7 @@ def reconstruct(cfg, domain: str, input_path: Path, out_dir: Path, checkpoint: P
     """Reconstruct one input file, or every input of a folder, into `out_dir`: per input
     <name>.yaml, .obj, .in-place.obj (3D inputs), .png and .blend (all of them, or none where
     that input fails), and `index.html` + `summary.csv` over all inputs."""
-    from geocode import page
+    from geocode.reconstruct import page
     from geocode.timing import Progress
 
     files = inputs_of(Path(input_path), recursive)
@@ -405,11 +405,11 @@ def reconstruct(cfg, domain: str, input_path: Path, out_dir: Path, checkpoint: P
 
 def write_outputs(run: Reconstructor, result: Reconstruction, stem: Path, out_dir: Path, name: str):
     """One input's files (reserved first: all of them or none) and its page entry."""
-    from geocode import page
+    from geocode.reconstruct import page
     from geocode.blender.gallery import grid
     from geocode.meshio import obj_text
     from geocode.outputs import Outputs
-    from geocode.tools.editing import write_shape
+    from geocode.blender.export import write_shape
 
     suffixes = [".yaml", ".obj", ".png", ".blend"] + ([".in-place.obj"] if result.frame else [])
     best = result.answers[0]
