@@ -237,13 +237,15 @@ NEAREST = "nearest"   # the retrieval baseline's condition and modality
 
 def nearest_rows(cfg: DictConfig, domain: str, gt_meshes: dict) -> list[dict]:
     """The retrieval baseline: each test shape's distance to the nearest training shape
-    (`geocode.reconstruct.retrieval`: plain Chamfer, best of four quarter-turns)."""
+    (`geocode.reconstruct.retrieval`: plain Chamfer). Test shapes stand in the program's own
+    frame, as its answers do, so no turn is tried (a real shape's retrieval tries four)."""
     from geocode.reconstruct.retrieval import TrainingShapes
 
     start = time.perf_counter()
     shapes = TrainingShapes.from_split(paths.split_dir(cfg, domain, "train"))
     rows = [dict(condition=NEAREST, modality=NEAREST, source="test", camera="", noise=0.0, sparse=0,
-                 id=i, chamfer=shapes.nearest(mesh, n=cfg.eval.chamfer_points).chamfer, stable=np.nan)
+                 id=i, chamfer=shapes.nearest(mesh, n=cfg.eval.chamfer_points, turns=(0.0,)).chamfer,
+                 stable=np.nan)
             for i, mesh in gt_meshes.items()]
     log.info("nearest training shapes of %d test shapes in %.1f s", len(rows), time.perf_counter() - start)
     return rows
