@@ -8,6 +8,7 @@ a model trains for an epoch, predictions are rebuilt and measured.
 from __future__ import annotations
 
 import hashlib
+import json
 import os
 import signal
 import subprocess
@@ -18,6 +19,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+import yaml
 
 ROOT = Path(__file__).resolve().parents[1]
 SMOKE = ["--config", "profile=smoke"]
@@ -174,3 +176,22 @@ def test_interrupted_dataset_run_resumes_to_identical_outputs(smoke_run, tmp_pat
     for split in ("test-s10",):                    # made by evaluation, not by this target
         theirs = {k: v for k, v in theirs.items() if not k.startswith(split)}
     assert ours == theirs
+
+
+def test_a_slice_of_the_paper_profile_runs_with_the_papers_settings(tmp_path):
+    """The paper profile's own settings (clouds of 1500 FPS + 1500 random points, batch 33, lr 1e-2
+    with StepLR, 600 epochs planned, the argmax read) on one batch of vases: its data and one epoch."""
+    snakemake(tmp_path, "-j2", "runs/paper/vase/joint/checkpoints/best.ckpt", "--config", "profile=paper",
+              "domains=[vase]", "data={max_shapes: {train: 33, val: 4, test: 4}, shards: 1}",
+              "train={max_epochs: 1}")
+    split = tmp_path / "data" / "paper" / "vase" / "train"
+    ids = pd.read_parquet(split / "recipes.parquet")["id"].tolist()
+    assert len(ids) == 33
+    clouds = np.load(split / "points" / f"{ids[0]}.npz")
+    assert clouds["fps"].shape == (1500, 3) and clouds["random"].shape == (1500, 3)
+    run = tmp_path / "runs" / "paper" / "vase" / "joint"
+    config = yaml.safe_load((run / "config.yaml").read_text())
+    assert (config["train"]["batch_size"], config["train"]["lr"], config["train"]["schedule"]) == (33, 0.01, "step")
+    assert config["data"]["variations"] == {"train": 30, "val": 3, "test": 3} and config["eval"]["decode"] == "argmax"
+    summary = json.loads((run / "summary.json").read_text())
+    assert summary["epochs"] == 1
