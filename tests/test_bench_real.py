@@ -9,10 +9,8 @@ import numpy as np
 import pytest
 import trimesh
 
-pytest.importorskip("bpy")
-
-from geocode.cli import main  # noqa: E402
-from geocode.program import Program  # noqa: E402
+from geocode.cli import main
+from geocode.program import Program
 
 pytestmark = pytest.mark.blender
 

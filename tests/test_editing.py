@@ -9,11 +9,9 @@ import zipfile
 import pytest
 import yaml
 
-pytest.importorskip("bpy")
-
-from geocode.cli import main  # noqa: E402
-from geocode.program import Program  # noqa: E402
-from geocode.tools import editing  # noqa: E402
+from geocode.cli import main
+from geocode.program import Program
+from geocode.tools import editing
 
 pytestmark = pytest.mark.blender
 

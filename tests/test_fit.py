@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 import trimesh
 
-from geocode.reconstruct.fit import CloudDistance, Pose, Start, trimmed_mean
 from geocode.points import sample_surface
+from geocode.reconstruct.fit import CloudDistance, Pose, Start, trimmed_mean
 
 
 def box_points(n: int, seed: int, bottom: bool = True) -> np.ndarray:
@@ -53,7 +53,6 @@ class TestFitOnAProgram:
 
     @pytest.fixture(scope="class")
     def vase(self):
-        pytest.importorskip("bpy")
         from geocode.program import Program
 
         program = Program.load("vase")
@@ -123,7 +122,6 @@ class TestFitOnAProgram:
 
 @pytest.mark.blender
 def test_the_nearest_training_shape_is_found_at_its_turn(tmp_path):
-    pytest.importorskip("bpy")
     from geocode.meshio import normalise_unit_sphere, write_obj
     from geocode.points import save_clouds
     from geocode.program import Program

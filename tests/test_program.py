@@ -8,13 +8,11 @@ import json
 import numpy as np
 import pytest
 
-pytest.importorskip("bpy")
-
-from geocode.bench.program import bench_program  # noqa: E402
-from geocode.expr import parse  # noqa: E402
-from geocode.paths import PROGRAMS_ENV  # noqa: E402
-from geocode.program import Program, registry  # noqa: E402
-from geocode.recipe import parse_manifest  # noqa: E402
+from geocode.bench.program import bench_program
+from geocode.expr import parse
+from geocode.paths import PROGRAMS_ENV
+from geocode.program import Program, registry
+from geocode.recipe import parse_manifest
 
 pytestmark = pytest.mark.blender
 

@@ -10,10 +10,8 @@ import pytest
 import trimesh
 from PIL import Image
 
-pytest.importorskip("bpy")
-
-from geocode import meshio  # noqa: E402
-from geocode.blender import sketch  # noqa: E402
+from geocode import meshio
+from geocode.blender import sketch
 
 pytestmark = pytest.mark.blender
 

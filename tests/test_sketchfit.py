@@ -9,6 +9,9 @@ import numpy as np
 import pytest
 import trimesh
 
+from geocode.meshio import normalise_unit_sphere
+from geocode.program import Program
+from geocode.recipe import Parameter
 from geocode.reconstruct.fit import Start
 from geocode.reconstruct.linedraw import (
     DrawingDistance,
@@ -19,9 +22,6 @@ from geocode.reconstruct.linedraw import (
     stroke_mask,
     strokes,
 )
-from geocode.meshio import normalise_unit_sphere
-from geocode.program import Program
-from geocode.recipe import Parameter
 from geocode.reconstruct.sketchfit import (
     CameraSpace,
     Shapes,
