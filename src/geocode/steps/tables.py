@@ -1,5 +1,6 @@
-"""The tables step (workflow/rules/tables.smk): per-sample metrics -> the paper's tables (docs/paper-numbers.md#tables) as CSV, Markdown
-and LaTeX, with the paper's values beside ours (no bpy, no torch).
+"""The tables step (workflow/rules/tables.smk): per-sample metrics -> the paper's tables
+(docs/paper-numbers.md#tables) as CSV, Markdown and LaTeX, with the paper's values beside ours
+(no bpy, no torch).
 
 The metrics frame has one row per (domain, variant, condition, id) with the columns
 `modality` (pc | sketch | gt | baseline), `source` (test | s10 | s100: the test meshes or
