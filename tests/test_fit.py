@@ -125,7 +125,8 @@ def test_the_nearest_training_shape_is_found_at_its_turn(tmp_path):
     from geocode.meshio import normalise_unit_sphere, write_obj
     from geocode.points import save_clouds
     from geocode.program import Program
-    from geocode.reconstruct.retrieval import TrainingShapes, turned
+    from geocode.reconstruct.fit import turn_about_z
+    from geocode.reconstruct.retrieval import TrainingShapes
 
     program = Program.load("vase")
     split = tmp_path / "train"
@@ -141,7 +142,7 @@ def test_the_nearest_training_shape_is_found_at_its_turn(tmp_path):
         meshes[shape_id] = mesh
     shapes = TrainingShapes.from_split(split)
     query = meshes["train-000001"].copy()
-    query.vertices = turned(query.vertices, math.pi / 2)
+    query.vertices = turn_about_z(query.vertices, math.pi / 2)
     match = shapes.nearest(query)
     assert match.shape_id == "train-000001"
     assert match.turn == pytest.approx(math.pi / 2)
