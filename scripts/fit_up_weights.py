@@ -65,7 +65,8 @@ def fit():
     rots = pose.axis_rotations()
     X, Y, G = [], [], []
     for d in DOMAINS:
-        for p, label in cases(d, range(1000, 1020), lambda i, j: [rots[(i * 4 + j * 7 + k * 5) % 24] for k in range(3)]):
+        turns = lambda i, j: [rots[(i * 4 + j * 7 + k * 5) % 24] for k in range(3)]  # noqa: E731
+        for p, label in cases(d, range(1000, 1020), turns):
             X.append(pose.up_features(p[np.random.default_rng(0).choice(len(p), min(3000, len(p)), replace=False)]))
             Y.append(pose.AXES.index(label))
             G.append(d)

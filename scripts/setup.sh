@@ -53,4 +53,9 @@ if [ "$(cat "$stamp" 2>/dev/null)" != "$want" ]; then
   .venv/bin/python -m pip install -q -e ".[$extras]"
   echo "$want" > "$stamp"
 fi
+# Blender is a hard dependency: stop here, with its error, rather than let the tests find out.
+if ! bpy_error=$(.venv/bin/python -c 'import bpy' 2>&1 >/dev/null); then
+  echo "setup: bpy does not import in .venv ($(printf '%s\n' "$bpy_error" | tail -n 1)); install what it names (a system library: apt-get) or remove .venv and rerun" >&2
+  exit 1
+fi
 echo "setup: ready (.venv, $(.venv/bin/python --version))"

@@ -1,12 +1,22 @@
-"""Shared fixtures."""
+"""Shared fixtures; and Blender is required: without a `bpy` that imports, the suite stops here."""
 
 import pytest
+
+
+def pytest_configure(config):
+    try:
+        import bpy  # noqa: F401
+    except ImportError as error:
+        reason = (str(error).splitlines() or [type(error).__name__])[0]
+        pytest.exit(f"bpy does not import ({reason}): run bash scripts/setup.sh, which installs bpy==5.0.1 "
+                    "into .venv, and test with .venv/bin/python -m pytest", returncode=pytest.ExitCode.USAGE_ERROR)
 
 
 @pytest.fixture
 def blender():
     """A fresh, empty Blender session for one test (factory settings, no data)."""
-    bpy = pytest.importorskip("bpy")
+    import bpy
+
     bpy.ops.wm.read_factory_settings(use_empty=True)
     return bpy
 
@@ -14,7 +24,8 @@ def blender():
 @pytest.fixture(scope="module")
 def program(request):
     """The program of the test module's `DOMAIN`, built in a fresh Blender session."""
-    bpy = pytest.importorskip("bpy")
+    import bpy
+
     from geocode.program import Program
 
     bpy.ops.wm.read_factory_settings(use_empty=True)

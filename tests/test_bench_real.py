@@ -4,15 +4,15 @@ architecture, so the numbers are arbitrary and the plumbing is real."""
 
 import json
 import math
+import statistics
 
 import numpy as np
 import pytest
 import trimesh
 
-pytest.importorskip("bpy")
-
-from geocode.cli import main  # noqa: E402
-from geocode.program import Program  # noqa: E402
+from geocode.cli import main
+from geocode.metrics import chamfer_meshes
+from geocode.program import Program
 
 pytestmark = pytest.mark.blender
 
@@ -42,8 +42,16 @@ def test_bench_real_scores_every_file_against_its_baselines_and_writes_their_pag
                  "-o", str(out), "--json", f"paths.runs={folder / 'runs'}"]) == 0
     result = json.loads(capsys.readouterr().out.strip().splitlines()[-1])["vase"]
     assert result["shapes"] == 2 and result["up_agrees"].endswith("/2")
-    for key in ("median_network", "median_fit", "median_defaults"):
-        assert 0 < result[key] < 1
+    files = result["files"]
+    for key in ("network", "fit", "defaults"):
+        assert result[f"median_{key}"] == pytest.approx(statistics.median(f[key] for f in files), abs=1e-6)
+        # the same shape, turned to +y and scaled 30x in one file: the same scores once posed
+        assert files[0][key] == pytest.approx(files[1][key], rel=0.05), key
+    assert all(f["fit"] <= f["network"] for f in files)          # the network's answer is a candidate
+    vase = Program.load("vase")   # defaults: the default shape against the file's, on the unit sphere
+    defaults = chamfer_meshes(vase.evaluate({}), vase.evaluate({"body_height": 1.2, "handle_count": 2}))
+    assert all(f["defaults"] == pytest.approx(defaults, rel=0.1) for f in files)
+    assert math.isnan(result["median_nearest"])                  # the run has no training shapes
     assert {f["up_true"] for f in result["files"]} == {"+y", "+z"}
     page = (out / "vase" / "index.html").read_text()
     assert "turned.off" in page and "plain.stl" in page

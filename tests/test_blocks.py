@@ -5,11 +5,9 @@ import math
 import numpy as np
 import pytest
 
-pytest.importorskip("bpy")
-
-from geocode import nodes  # noqa: E402
-from geocode.nodes import Evaluator, Graph  # noqa: E402
-from geocode.nodes.visibility import infer_visibility  # noqa: E402
+from geocode import nodes
+from geocode.nodes import Evaluator, Graph
+from geocode.nodes.visibility import infer_visibility
 
 pytestmark = pytest.mark.blender
 

@@ -5,11 +5,9 @@ import numpy as np
 import pytest
 import trimesh
 
-pytest.importorskip("bpy")
-
-from geocode.paths import programs_dir  # noqa: E402
-from geocode.recipe import Recipe  # noqa: E402
-from geocode.stability import loose_parts  # noqa: E402
+from geocode.paths import programs_dir
+from geocode.recipe import Recipe
+from geocode.stability import loose_parts
 
 pytestmark = pytest.mark.blender
 

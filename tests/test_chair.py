@@ -4,10 +4,8 @@ rule: change one parameter, check the geometric consequence)."""
 import numpy as np
 import pytest
 
-pytest.importorskip("bpy")
-
-from geocode.program import part_mesh  # noqa: E402
-from geocode.stability import drop_test, loose_parts, winding_number  # noqa: E402
+from geocode.program import part_mesh
+from geocode.stability import drop_test, loose_parts, winding_number
 
 pytestmark = pytest.mark.blender
 
@@ -379,7 +377,7 @@ def test_a_bulging_seat_grows_out_behind_its_middle_and_moves_nothing_else(progr
     moved = np.abs(after - before).max(axis=1) > 1e-6
     assert not moved[before[:, 1] <= 0].any()
     assert not moved[np.abs(before[:, 0]) >= 0.25 - 1e-6].any()
-    rest = [l for l in np.unique(straight.metadata["part"]) if l not in seat]
+    rest = [part for part in np.unique(straight.metadata["part"]) if part not in seat]
     assert np.array_equal(_vertices(straight, *rest), _vertices(bulged, *rest))
     assert loose_parts(bulged) == 0
 

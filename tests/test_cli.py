@@ -107,7 +107,6 @@ def test_an_out_of_bound_size_or_unwritable_output_is_refused_before_blender_sta
 
 @pytest.mark.blender
 def test_a_shape_whose_picture_fails_leaves_no_obj(tmp_path, monkeypatch, capsys):
-    pytest.importorskip("bpy")
     from geocode.errors import UserError
 
     def broken_render(mesh, png):

@@ -6,14 +6,15 @@ import subprocess
 import sys
 import zipfile
 
+import numpy as np
 import pytest
 import yaml
+from PIL import Image
 
-pytest.importorskip("bpy")
-
-from geocode.cli import main  # noqa: E402
-from geocode.program import Program  # noqa: E402
-from geocode.tools import editing  # noqa: E402
+from geocode import meshio
+from geocode.cli import main
+from geocode.program import Program
+from geocode.tools import editing
 
 pytestmark = pytest.mark.blender
 
@@ -63,16 +64,36 @@ def test_interpolation_ends_at_the_inputs_and_switches_discrete_at_the_midpoint(
     assert [s["handle_count"] for s in sequence] == [0, 0, 0, 2, 2, 2]
 
 
-def test_mix_and_interpolate_commands_write_their_files(shapes, tmp_path):
-    a, b = shapes
-    assert main(["mix", "vase", str(a), str(b), "--take", "handle", "-o", str(tmp_path / "m.obj")]) == 0
-    assert (tmp_path / "m.obj").stat().st_size > 0
-    assert yaml.safe_load((tmp_path / "m.yaml").read_text())["handle_count"] == 2
+def _assert_written_shape(obj, values_file, program, values):
+    """The YAML holds `values` and the OBJ is the program's mesh at them, on the unit sphere."""
+    assert {k: float(v) for k, v in yaml.safe_load(values_file.read_text()).items()} == values
+    mesh, want = meshio.read_obj(obj), meshio.normalise_unit_sphere(program.evaluate(values))
+    np.testing.assert_array_equal(mesh.faces, want.faces)
+    np.testing.assert_allclose(mesh.vertices, want.vertices, atol=1e-6)
+
+
+def test_mix_writes_a_with_the_parameters_taken_from_b(vase, shapes, tmp_path):
+    a, b = (editing.read_values(p, vase) for p in shapes)
+    assert main(["mix", "vase", *map(str, shapes), "--take", "handle", "-o", str(tmp_path / "m.obj")]) == 0
+    mixed = {name: (b if name.startswith("handle_") else a)[name] for name in a}
+    assert (mixed["body_height"], mixed["belly_width"], mixed["handle_count"], mixed["handle_reach"]) \
+        == (0.7, 0.3, 2.0, 0.3)
+    _assert_written_shape(tmp_path / "m.obj", tmp_path / "m.yaml", vase, mixed)
+
+
+def test_interpolate_writes_each_step_and_a_strip_of_them(vase, shapes, tmp_path):
+    a, b = (editing.read_values(p, vase) for p in shapes)
     out = tmp_path / "seq"
-    assert main(["interpolate", "vase", str(a), str(b), "--steps", "3", "-o", str(out)]) == 0
+    assert main(["interpolate", "vase", *map(str, shapes), "--steps", "3", "-o", str(out)]) == 0
     assert sorted(p.name for p in out.iterdir()) == [
         "step-00.obj", "step-00.yaml", "step-01.obj", "step-01.yaml", "step-02.obj",
         "step-02.yaml", "strip.png"]
+    steps = editing.interpolate(vase, a, b, 3)
+    assert steps[0] == a and steps[2] == b and steps[1]["body_height"] == pytest.approx(1.1)
+    for i, values in enumerate(steps):
+        _assert_written_shape(out / f"step-{i:02d}.obj", out / f"step-{i:02d}.yaml", vase, values)
+    strip = Image.open(out / "strip.png")
+    assert strip.width == 3 * strip.height                  # one square picture per step, in a row
 
 
 def test_bad_shape_file_gives_one_line_and_writes_nothing(shapes, tmp_path, capsys):

@@ -3,8 +3,6 @@ trimesh test double of the Program/Recipe contract, then with the real vase prog
 
 from __future__ import annotations
 
-import importlib.util
-
 import numpy as np
 import pandas as pd
 import pytest
@@ -146,24 +144,15 @@ def test_missing_columns_named(tmp_path):
         list(export.shard_rows(tmp_path / "recipes.parquet", 0))
 
 
-def _vase_or_skip():
-    from geocode.paths import repo_root
-
-    if importlib.util.find_spec("geocode.program") is None:
-        pytest.skip("geocode.program is not written yet (another engineer's module)")
-    if importlib.util.find_spec("geocode.recipe") is None:
-        pytest.skip("geocode.recipe is not written yet (another engineer's module)")
-    for name in ("vase.py", "vase.yaml"):
-        if not (repo_root() / "programs" / name).exists():
-            pytest.skip(f"programs/{name} is not written yet")
-    pytest.importorskip("bpy")
+def _vase():
+    """The real vase program and its recipe."""
     program = export.load_program("vase")
     return program, program.recipe()
 
 
 @pytest.mark.blender
 def test_export_real_vase(tmp_path):
-    program, recipe = _vase_or_skip()
+    program, recipe = _vase()
     rows = export.random_rows(program, 3, seed=3)
     learned = [p.name for p in recipe.parameters]
     _recipes(tmp_path, [{k: v[k] for k in learned} for _, v in rows])

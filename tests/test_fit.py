@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 import trimesh
 
-from geocode.reconstruct.fit import CloudDistance, Pose, Start, trimmed_mean
 from geocode.points import sample_surface
+from geocode.reconstruct.fit import CloudDistance, Pose, Start, trimmed_mean
 
 
 def box_points(n: int, seed: int, bottom: bool = True) -> np.ndarray:
@@ -53,7 +53,6 @@ class TestFitOnAProgram:
 
     @pytest.fixture(scope="class")
     def vase(self):
-        pytest.importorskip("bpy")
         from geocode.program import Program
 
         program = Program.load("vase")
@@ -123,11 +122,11 @@ class TestFitOnAProgram:
 
 @pytest.mark.blender
 def test_the_nearest_training_shape_is_found_at_its_turn(tmp_path):
-    pytest.importorskip("bpy")
     from geocode.meshio import normalise_unit_sphere, write_obj
     from geocode.points import save_clouds
     from geocode.program import Program
-    from geocode.reconstruct.retrieval import TrainingShapes, turned
+    from geocode.reconstruct.fit import turn_about_z
+    from geocode.reconstruct.retrieval import TrainingShapes
 
     program = Program.load("vase")
     split = tmp_path / "train"
@@ -143,7 +142,7 @@ def test_the_nearest_training_shape_is_found_at_its_turn(tmp_path):
         meshes[shape_id] = mesh
     shapes = TrainingShapes.from_split(split)
     query = meshes["train-000001"].copy()
-    query.vertices = turned(query.vertices, math.pi / 2)
+    query.vertices = turn_about_z(query.vertices, math.pi / 2)
     match = shapes.nearest(query)
     assert match.shape_id == "train-000001"
     assert match.turn == pytest.approx(math.pi / 2)

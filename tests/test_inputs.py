@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 import trimesh
 
-from geocode.reconstruct import inputs
 from geocode.errors import UserError
+from geocode.reconstruct import inputs
 from geocode.reconstruct.inputs import keep_main_object, read_geometry, surface_points
 
 

@@ -5,9 +5,7 @@ import math
 import numpy as np
 import pytest
 
-pytest.importorskip("bpy")
-
-from geocode.nodes import (  # noqa: E402
+from geocode.nodes import (
     Evaluator,
     Graph,
     curves,

@@ -5,9 +5,7 @@ import importlib
 import numpy as np
 import pytest
 
-pytest.importorskip("bpy")
-
-from geocode.nodes import Evaluator, Graph, NodeGroup, node_group  # noqa: E402
+from geocode.nodes import Evaluator, Graph, NodeGroup, node_group
 
 pytestmark = pytest.mark.blender
 

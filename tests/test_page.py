@@ -13,6 +13,7 @@ import pytest
 import trimesh
 from PIL import Image
 
+from geocode.points import sample_surface
 from geocode.reconstruct.page import (
     CLOUD_POINTS,
     Candidate,
@@ -25,7 +26,6 @@ from geocode.reconstruct.page import (
     summary_csv,
     write_page,
 )
-from geocode.points import sample_surface
 
 
 def box(size=1.0, offset=(0, 0, 0)) -> trimesh.Trimesh:

@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from geocode.reconstruct import pose
 from geocode.errors import UserError
+from geocode.reconstruct import pose
 
 
 def test_axis_rotation_brings_each_axis_up_and_y_is_the_old_convention():
@@ -110,7 +110,6 @@ BARS = {"chair": 0.8, "table": 0.8, "ceiling_lamp": 0.55, "vase": 0.4, "cabinet"
 @pytest.mark.blender
 @pytest.mark.parametrize("domain", sorted(BARS))
 def test_up_axis_on_program_shapes_turned_every_way(domain):
-    pytest.importorskip("bpy")
     ups = [pose.axis_rotation(a).T for a in pose.AXES]   # +z -> each axis
     hits = []
     for i, (rng, base) in enumerate(program_clouds(domain, SHAPES, seed=7000)):
@@ -128,8 +127,8 @@ def test_up_axis_on_program_shapes_turned_every_way(domain):
 def test_a_mesh_is_normalised_by_its_vertices_as_the_dataset_is():
     import trimesh
 
-    from geocode.reconstruct.inputs import Geometry, surface_points
     from geocode.meshio import normalise_unit_sphere
+    from geocode.reconstruct.inputs import Geometry, surface_points
 
     mesh = trimesh.creation.box((0.4, 0.6, 1.0)).apply_translation((3, 4, 5))
     samples = surface_points(Geometry(None, None, mesh, "mesh"), 2000, np.random.default_rng(0))

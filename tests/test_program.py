@@ -4,17 +4,18 @@ manifest, .blend, registry, sampling, bench; on a small hand-built program."""
 import hashlib
 import itertools
 import json
+import statistics
+import time
 
 import numpy as np
 import pytest
 
-pytest.importorskip("bpy")
-
-from geocode.bench.program import bench_program  # noqa: E402
-from geocode.expr import parse  # noqa: E402
-from geocode.paths import PROGRAMS_ENV  # noqa: E402
-from geocode.program import Program, registry  # noqa: E402
-from geocode.recipe import parse_manifest  # noqa: E402
+from geocode.bench.program import bench_program
+from geocode.expr import parse
+from geocode.paths import PROGRAMS_ENV
+from geocode.program import Program, registry
+from geocode.recipe import parse_manifest
+from geocode.stability import is_stable, loose_parts
 
 pytestmark = pytest.mark.blender
 
@@ -206,9 +207,16 @@ def test_random_values_cover_ranges_reproducibly(toy):
             assert set(values) == set(range(int(r.min), int(r.max) + 1))
 
 
-def test_bench_reports_speed_and_validity(toy):
-    result = bench_program("toy", n=5)
-    assert result["n"] == 5 and result["shapes_per_s"] > 0
-    assert result["median_faces"] > 0 and 0.0 <= result["loose_part_rate"] <= 1.0
-    assert "stable_rate" not in result
-    assert 0.0 <= bench_program("toy", n=3, stability=True)["stable_rate"] <= 1.0
+def test_bench_reports_speed_and_validity_of_the_seeded_shapes(toy):
+    started = time.perf_counter()
+    result = bench_program("toy", n=5, seed=3, stability=True)
+    wall = time.perf_counter() - started
+    rng = np.random.default_rng(3)
+    meshes = [toy.evaluate(toy.random_values(rng)) for _ in range(5)]
+    assert result["n"] == 5
+    assert result["median_faces"] == statistics.median(len(m.faces) for m in meshes)
+    assert result["loose_part_rate"] == sum(loose_parts(m) > 0 for m in meshes) / 5
+    assert result["nonfinite_rate"] == 0.0
+    assert result["stable_rate"] == sum(is_stable(m) for m in meshes) / 5
+    assert 5 / result["shapes_per_s"] <= wall          # the shapes' own time, inside the call
+    assert "stable_rate" not in bench_program("toy", n=2)

@@ -6,10 +6,8 @@ from pathlib import Path
 
 import pytest
 
-pytest.importorskip("bpy")
-
-from geocode.paths import programs_dir  # noqa: E402
-from geocode.program import Program, registry  # noqa: E402
+from geocode.paths import programs_dir
+from geocode.program import Program, registry
 
 pytestmark = pytest.mark.blender
 

@@ -3,9 +3,7 @@ nodes at the top level, each a named node group or inside a labelled frame."""
 
 import pytest
 
-pytest.importorskip("bpy")
-
-from geocode.program import Program, registry  # noqa: E402
+from geocode.program import Program, registry
 
 pytestmark = pytest.mark.blender
 

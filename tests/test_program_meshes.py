@@ -13,9 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-pytest.importorskip("bpy")
-
-from geocode.program import Program  # noqa: E402
+from geocode.program import Program
 
 pytestmark = pytest.mark.blender
 

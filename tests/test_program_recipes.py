@@ -8,10 +8,8 @@ import numpy as np
 import pytest
 import yaml
 
-pytest.importorskip("bpy")
-
-from geocode.paths import recipe_path  # noqa: E402
-from geocode.program import Program, registry  # noqa: E402
+from geocode.paths import recipe_path
+from geocode.program import Program, registry
 
 pytestmark = pytest.mark.blender
 # table and chair re-recorded when they grew to real forms (issue 24: proportions, leg_style;

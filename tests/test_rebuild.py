@@ -1,12 +1,12 @@
 """Rebuilding predictions: OBJs on the unit sphere, keys with folders, resume; a gallery from a
-test double; the real vase once its program exists."""
+test double; the real vase."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 from PIL import Image
-from test_export import TowerDouble, _vase_or_skip
+from test_export import TowerDouble, _vase
 
 from geocode import meshio
 from geocode.blender import rebuild as rb
@@ -39,7 +39,6 @@ def test_rebuild_names_the_failing_key(tmp_path):
 
 @pytest.mark.blender
 def test_gallery_of_a_double(tmp_path):
-    pytest.importorskip("bpy")
     from geocode.blender.gallery import render_gallery
 
     out = render_gallery("tower", tmp_path / "g.png", n=4, program=TowerDouble())
@@ -52,7 +51,7 @@ def test_gallery_of_a_double(tmp_path):
 
 @pytest.mark.blender
 def test_rebuild_real_vase(tmp_path):
-    program, _ = _vase_or_skip()
+    program, _ = _vase()
     rows = random_rows(program, 3, seed=5)
     paths = rb.rebuild("vase", rows, tmp_path, program=program)
     for path, (_, values) in zip(paths, rows, strict=True):

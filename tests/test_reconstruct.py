@@ -15,11 +15,11 @@ from scipy import ndimage
 pytest.importorskip("bpy")
 
 from geocode.cli import main  # noqa: E402
-from geocode.reconstruct.fit import CloudDistance, Start, fit, shape_points  # noqa: E402
 from geocode.meshio import normalise_unit_sphere  # noqa: E402
-from geocode.reconstruct.page import SIZE  # noqa: E402
 from geocode.points import sample_surface  # noqa: E402
 from geocode.program import Program  # noqa: E402
+from geocode.reconstruct.fit import CloudDistance, Start, fit, shape_points  # noqa: E402
+from geocode.reconstruct.page import SIZE  # noqa: E402
 from geocode.reconstruct.run import SKETCH_EXTENT, sketch_from_image  # noqa: E402
 
 pytestmark = pytest.mark.blender

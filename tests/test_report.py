@@ -85,8 +85,10 @@ def gallery_page(tmp_path: Path, run, missing: bool = False) -> Path:
         save_png(cloud_image(rng.normal(size=(200, 3))), tmp_path / DOMAIN / f"a_{name}.png")
     if missing:
         (tmp_path / DOMAIN / "a_pc.png").unlink()
-    row = dict(id="a", chamfer_pc=0.01, chamfer_sketch=0.02, chamfer_fit=0.005, **{n: f"{DOMAIN}/a_{n}.png" for n in names})
-    index = write_report(tmp_path, "report", "test", [{"domain": DOMAIN, "rows": [row], "training": run_training_html(out)}])
+    row = dict(id="a", chamfer_pc=0.01, chamfer_sketch=0.02, chamfer_fit=0.005,
+               **{n: f"{DOMAIN}/a_{n}.png" for n in names})
+    index = write_report(tmp_path, "report", "test",
+                         [{"domain": DOMAIN, "rows": [row], "training": run_training_html(out)}])
     index.write_text(index.read_text() + IMAGE_CHECK)
     return index
 

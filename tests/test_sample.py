@@ -195,7 +195,6 @@ def test_assign_shards(splits):
 
 
 def test_save_and_load_recipes(tmp_path, splits):
-    pytest.importorskip("pyarrow", exc_type=ImportError)
     path = tmp_path / "vase" / "train" / "recipes.parquet"
     save_recipes(splits["train"], path)
     pd.testing.assert_frame_equal(load_recipes(path), splits["train"])

@@ -46,8 +46,8 @@ def toy(tmp_path_factory):
 def _batches(toy, seed: int):
     """The first training batch and the validation clouds of the datamodule that `train` builds."""
     data, build = toy
-    cfg = compose(["profile=smoke", f"paths.data={data}", f"paths.build={build}", f"domain={DOMAIN}", f"domains=[{DOMAIN}]",
-                   f"data.points.train_random={N_PICK}", "train.batch_size=4", f"seed={seed}"])
+    cfg = compose(["profile=smoke", f"paths.data={data}", f"paths.build={build}", f"domain={DOMAIN}",
+                   f"domains=[{DOMAIN}]", f"data.points.train_random={N_PICK}", "train.batch_size=4", f"seed={seed}"])
     assert [c.name for c in cfg.data.sketch.cameras if c.train] == CAMERAS
     dm = build_datamodule(cfg, load_recipe(cfg))
     dm.setup("fit")

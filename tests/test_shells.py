@@ -3,9 +3,7 @@
 import numpy as np
 import pytest
 
-pytest.importorskip("bpy")
-
-from geocode.nodes import Evaluator, Graph, rectangle_fillet, shell  # noqa: E402
+from geocode.nodes import Evaluator, Graph, rectangle_fillet, shell
 
 pytestmark = pytest.mark.blender
 

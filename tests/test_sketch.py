@@ -1,5 +1,6 @@
-"""Freestyle sketches through real Blender (Cycles on the CPU): image format, cameras,
-determinism, mesh swapping, and the shard driver's skip/done-file behaviour."""
+"""Freestyle sketches through real Blender (Cycles on the CPU): image format, strokes where the
+shape projects from each camera, determinism, mesh swapping, and the shard driver's
+skip/done-file behaviour."""
 
 from __future__ import annotations
 
@@ -8,12 +9,13 @@ import io
 import numpy as np
 import pytest
 import trimesh
-from PIL import Image
+from PIL import Image, ImageDraw
+from scipy import ndimage
+from scipy.spatial import ConvexHull
 
-pytest.importorskip("bpy")
-
-from geocode import meshio  # noqa: E402
-from geocode.blender import sketch  # noqa: E402
+from geocode import meshio
+from geocode.blender import sketch
+from geocode.blender.scene import MARGIN, camera_location
 
 pytestmark = pytest.mark.blender
 
@@ -38,23 +40,50 @@ def _pixels(data: bytes) -> np.ndarray:
     return np.asarray(Image.open(io.BytesIO(data)))
 
 
-def test_sketch_is_grey_black_on_white(tmp_path):
+def _projected(mesh, cam: sketch.Camera, size: int = 224) -> np.ndarray:
+    """The mesh's vertices in pixels (x right, y down) as blender/scene.py's camera promises to
+    see them: orthographic from `camera_location`, +z up, the image spanning 2 * MARGIN radii."""
+    eye = np.array(camera_location(cam))
+    forward = -eye / np.linalg.norm(eye)
+    right = np.cross(forward, [0.0, 0.0, 1.0])
+    right /= np.linalg.norm(right)
+    up = np.cross(right, forward)
+    k, v = size / (2 * MARGIN), np.asarray(mesh.vertices)
+    return np.stack([size / 2 + k * (v @ right), size / 2 - k * (v @ up)], axis=1)
+
+
+def _misses(data: bytes, mesh, cam: sketch.Camera) -> tuple[float, float]:
+    """For a convex mesh: (how far, in px, the farthest stroke pixel lies outside the mesh's
+    projected outline; how far the farthest point of that outline lies from a stroke)."""
+    ink = _pixels(data) < 128
+    xy = _projected(mesh, cam)
+    hull = xy[ConvexHull(xy).vertices]
+    region = Image.new("1", ink.shape[::-1], 0)
+    ImageDraw.Draw(region).polygon([tuple(p) for p in hull], fill=1)
+    outside = ndimage.distance_transform_edt(~np.asarray(region))[ink].max()
+    outline = np.concatenate([np.linspace(p, q, int(np.linalg.norm(q - p)) + 2)
+                              for p, q in zip(hull, np.roll(hull, -1, axis=0), strict=True)])
+    cols, rows = np.clip(outline.astype(int), 0, np.array(ink.shape[::-1]) - 1).T
+    return float(outside), float(ndimage.distance_transform_edt(~ink)[rows, cols].max())
+
+
+def test_sketch_is_black_strokes_on_white_where_the_shape_projects(tmp_path):
     data = _render(_cube(), tmp_path, CAMS[0])
     img = Image.open(io.BytesIO(data))
     assert img.mode == "L" and img.size == (224, 224)
     assert not img.info                                                # no render-time text
     px = np.asarray(img)
-    assert (px[:8, :8] == 255).all() and (px[-8:, -8:] == 255).all()   # white background
-    assert (px < 128).sum() > 100                                      # some strokes
-    assert np.median(px) == 255                                        # mostly white
+    assert px.min() == 0 and np.median(px) == 255                      # black strokes, mostly white
+    assert max(_misses(data, _cube(), CAMS[0])) <= 1.5                 # the outline drawn, nothing else
 
 
-def test_cameras_differ_and_render_is_deterministic(tmp_path):
+def test_each_camera_draws_its_own_view_and_render_is_deterministic(tmp_path):
     cube = _cube()
-    a = _render(cube, tmp_path, CAMS[0])
-    b = _render(cube, tmp_path, CAMS[1])
-    assert a != b
-    assert _render(cube, tmp_path, CAMS[0]) == a
+    drawn = {cam.name: _render(cube, tmp_path, cam) for cam in CAMS}
+    for cam in CAMS:
+        assert max(_misses(drawn[cam.name], cube, cam)) <= 1.5, cam
+    assert min(_misses(drawn[CAMS[0].name], cube, CAMS[1])) > 5      # 20 degrees apart: far off
+    assert _render(cube, tmp_path, CAMS[0]) == drawn[CAMS[0].name]
 
 
 def test_jitter_is_seeded(tmp_path):
@@ -66,12 +95,13 @@ def test_jitter_is_seeded(tmp_path):
     assert _render(cube, tmp_path, CAMS[0]) != a                       # jitter moved the view
     j = sketch.jittered(CAMS[0], 7, "train-000001", 2.0)
     assert abs(j.azimuth - CAMS[0].azimuth) <= 2 and abs(j.elevation - CAMS[0].elevation) <= 2
+    assert j != CAMS[0] and max(_misses(a, cube, j)) <= 1.5            # drawn from the jittered view
 
 
 def test_mesh_swap_shows_the_new_mesh(tmp_path):
     cube_first = _render(_cube(), tmp_path, CAMS[0])
     sphere = _render(_sphere(), tmp_path, CAMS[0])
-    assert sphere != cube_first
+    assert max(_misses(sphere, _sphere(), CAMS[0])) <= 1.5             # the sphere's circle
     assert _render(_cube(), tmp_path, CAMS[0]) == cube_first           # no stale geometry
 
 

@@ -9,6 +9,9 @@ import numpy as np
 import pytest
 import trimesh
 
+from geocode.meshio import normalise_unit_sphere
+from geocode.program import Program
+from geocode.recipe import Parameter
 from geocode.reconstruct.fit import Start
 from geocode.reconstruct.linedraw import (
     DrawingDistance,
@@ -19,9 +22,6 @@ from geocode.reconstruct.linedraw import (
     stroke_mask,
     strokes,
 )
-from geocode.meshio import normalise_unit_sphere
-from geocode.program import Program
-from geocode.recipe import Parameter
 from geocode.reconstruct.sketchfit import (
     CameraSpace,
     Shapes,
@@ -161,7 +161,8 @@ def test_fit_answers_the_branch_whose_search_ends_nearest(monkeypatch):
     import geocode.reconstruct.sketchfit as sketchfit
 
     plan, openings = [], []
-    monkeypatch.setattr(sketchfit, "finish_search", fake_finish({(1.0, True): 2.0, (2.0, True): 0.5, (3.0, True): 1.5}, plan))
+    monkeypatch.setattr(sketchfit, "finish_search",
+                        fake_finish({(1.0, True): 2.0, (2.0, True): 0.5, (3.0, True): 1.5}, plan))
     opened = sketchfit.open_search
     monkeypatch.setattr(sketchfit, "open_search", lambda *a: (openings.append(opened(*a)), openings[-1])[1])
     start = Start({"width": 1.0, "depth": 0.7, "count": 1.0}, {"count": [1.0, 2.0, 3.0]})
@@ -181,7 +182,8 @@ def test_two_orders_search_each_branch_with_its_switches_judged_before_and_after
 
     sweeps, plan = [], []
     monkeypatch.setattr(sketchfit, "sweep_discrete", lambda obj, space, x, f, budget: (sweeps.append("d"), (x, f))[1])
-    monkeypatch.setattr(sketchfit, "sweep_continuous", lambda obj, space, x, f, budget, step, extra: (sweeps.append("c"), (x, f))[1])
+    monkeypatch.setattr(sketchfit, "sweep_continuous",
+                        lambda obj, space, x, f, budget, step, extra: (sweeps.append("c"), (x, f))[1])
     start = Start({"width": 1.0, "depth": 0.7, "count": 1.0}, {"count": [1.0, 2.0]})
     drawing = boxes_drawing(start.values, View())
     guesses = ((35.0, 30.0),)

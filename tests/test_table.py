@@ -4,10 +4,8 @@ rule: change one parameter, check the geometric consequence). Its recipe: test_p
 import numpy as np
 import pytest
 
-pytest.importorskip("bpy")
-
-from geocode.program import part_mesh  # noqa: E402
-from geocode.stability import drop_test, loose_parts  # noqa: E402
+from geocode.program import part_mesh
+from geocode.stability import drop_test, loose_parts
 
 pytestmark = pytest.mark.blender
 

@@ -14,13 +14,15 @@ def record(folder, output, rule, start, end, log=None, job=1):
 
 
 def test_job_times_per_stage_and_domain(tmp_path, capsys):
-    record(tmp_path, "data/mini/vase/train/done/export-0.txt", "export", 100, 160, "logs/data/mini/export/vase-train-0.log")
-    record(tmp_path, "data/mini/vase/train/done/export-1.txt", "export", 100, 130, "logs/data/mini/export/vase-train-1.log", 2)
-    record(tmp_path, "runs/mini/chair/joint/checkpoints/best.ckpt", "train", 160, 400, "logs/runs/mini/train/chair-joint.log", 3)
-    record(tmp_path, "runs/mini/chair/joint/checkpoints/last.ckpt", "train", 160, 400, "logs/runs/mini/train/chair-joint.log", 3)
+    export, train = "logs/data/mini/export/vase-train", "logs/runs/mini/train/chair-joint.log"
+    record(tmp_path, "data/mini/vase/train/done/export-0.txt", "export", 100, 160, f"{export}-0.log")
+    record(tmp_path, "data/mini/vase/train/done/export-1.txt", "export", 100, 130, f"{export}-1.log", 2)
+    record(tmp_path, "runs/mini/chair/joint/checkpoints/best.ckpt", "train", 160, 400, train, 3)
+    record(tmp_path, "runs/mini/chair/joint/checkpoints/last.ckpt", "train", 160, 400, train, 3)
     record(tmp_path, "build/programs/vase.blend", "program", 50, 55, "logs/build/program/vase.log", 4)
     record(tmp_path, "results/tables", "tables", 400, 460, "logs/runs/mini/tables.log", 5)
-    record(tmp_path, "data/smoke/vase/train/done/export-0.txt", "export", 0, 9, "logs/data/smoke/export/vase-train-0.log", 6)
+    record(tmp_path, "data/smoke/vase/train/done/export-0.txt", "export", 0, 9,
+           "logs/data/smoke/export/vase-train-0.log", 6)
     (tmp_path / "not-base64!").write_text("{}")
     jobs = run_times(tmp_path, "mini", ["vase", "chair"], ["joint", "huang"])
     assert len(jobs) == 4           # one job per hash; smoke's and the shared program build left out

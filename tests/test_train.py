@@ -125,7 +125,8 @@ def test_loaded_network_predicts_as_the_trained_module_without_lightning(run):
     points = np.random.default_rng(1).normal(size=(4, N_FPS + N_PICK, 3)).astype(np.float32)
     np.testing.assert_array_equal(predict_classes(net, points=points), predict_classes(module.eval(), points=points))
     code = "import sys, geocode.checkpoints, geocode.reconstruct.run; print('pytorch_lightning' in sys.modules)"
-    assert subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip() == "False"
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert run.stdout.strip() == "False"
 
 
 def test_network_defaults_are_the_training_modules_and_fill_old_checkpoints(run, tmp_path):

@@ -7,11 +7,9 @@ import numpy as np
 import pytest
 from PIL import Image
 
-pytest.importorskip("bpy")
-
-from geocode.paths import PROGRAMS_ENV  # noqa: E402
-from geocode.program import Program, registry  # noqa: E402
-from geocode.stability import loose_parts  # noqa: E402
+from geocode.paths import PROGRAMS_ENV
+from geocode.program import Program, registry
+from geocode.stability import loose_parts
 
 pytestmark = pytest.mark.blender
 

@@ -6,11 +6,9 @@ import numpy as np
 import pytest
 import trimesh
 
-pytest.importorskip("bpy")
-
-from geocode.program import Program  # noqa: E402
-from geocode.recipe import Recipe  # noqa: E402
-from geocode.stability import loose_parts  # noqa: E402
+from geocode.program import Program
+from geocode.recipe import Recipe
+from geocode.stability import loose_parts
 
 pytestmark = pytest.mark.blender
 

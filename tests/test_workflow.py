@@ -63,7 +63,8 @@ def test_default_run_plans_huang_everywhere_and_the_chair_ablations(tmp_path):
     assert "runs/mini/vase/regression" not in out and "runs/mini/vase/separate" not in out
     bad = snakemake(tmp_path, "-n", "results/tables", "--config", "eval={variants: [joint, hwang]}", check=False)
     assert bad.returncode != 0
-    assert "eval.variants=hwang: unknown model variant; use one of huang, joint, regression, separate" in bad.stdout + bad.stderr
+    assert ("eval.variants=hwang: unknown model variant; use one of huang, joint, regression, separate"
+            in bad.stdout + bad.stderr)
 
 
 def test_bad_config_stops_before_any_job_with_one_line(tmp_path):

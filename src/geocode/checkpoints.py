@@ -47,9 +47,11 @@ def read_checkpoint(path: str | Path, map_location="cpu") -> dict:
     try:
         ckpt = torch.load(path, map_location=map_location, weights_only=True)
     except Exception as exc:  # torch raises many types for a broken file
-        raise CheckpointError(path, f"not a readable checkpoint ({one_line(exc)})", "retrain or pick another file") from None
+        raise CheckpointError(path, f"not a readable checkpoint ({one_line(exc)})",
+                              "retrain or pick another file") from None
     if not isinstance(ckpt, Mapping) or "state_dict" not in ckpt or "heads" not in ckpt.get("hyper_parameters", {}):
-        raise CheckpointError(path, "not a geocode model checkpoint (no state_dict / heads)", "pick a best.ckpt or last.ckpt")
+        raise CheckpointError(path, "not a geocode model checkpoint (no state_dict / heads)",
+                              "pick a best.ckpt or last.ckpt")
     return dict(ckpt)
 
 
@@ -86,7 +88,8 @@ def load_model(checkpoint: str | Path, map_location="cpu", recipe=None) -> GeoCo
         model = GeoCodeNet(**ckpt["hyper_parameters"])
         model.load_state_dict(ckpt["state_dict"])
     except (TypeError, ValueError, RuntimeError, KeyError) as exc:
-        raise CheckpointError(checkpoint, f"checkpoint does not fit the model ({one_line(exc)})", "retrain or pick another file") from None
+        raise CheckpointError(checkpoint, f"checkpoint does not fit the model ({one_line(exc)})",
+                              "retrain or pick another file") from None
     return model.eval()
 
 
@@ -126,7 +129,8 @@ def predict_classes(model: GeoCodeNet, points=None, sketches=None, batch_size: i
     return np.concatenate(out) if out else np.zeros((0, n_params), dtype=np.int64)
 
 
-def predict(checkpoint: str | Path, points=None, sketches=None, batch_size: int = 64, device: str | None = None) -> dict:
+def predict(checkpoint: str | Path, points=None, sketches=None, batch_size: int = 64,
+            device: str | None = None) -> dict:
     """{"names": parameter names, "points": (N, P), "sketch": (N, P)} for the inputs given."""
     model = load_model(checkpoint)
     if device:

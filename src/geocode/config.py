@@ -79,7 +79,8 @@ def settings(cfg: DictConfig) -> Settings:
 
 def _check_targets(cfg: DictConfig) -> None:
     variants = group_options("model")
-    targets = {t for name in variants for t in _targets(OmegaConf.load(repo_root() / "conf" / "model" / f"{name}.yaml"))}
+    targets = {t for name in variants
+               for t in _targets(OmegaConf.load(repo_root() / "conf" / "model" / f"{name}.yaml"))}
     for target in _targets(cfg):
         if target not in targets:
             raise ConfigError(f"_target_={target}", "not one of the project's model classes",

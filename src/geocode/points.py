@@ -1,5 +1,6 @@
 """Point clouds from meshes (docs/paper-numbers.md#dataset-generation and #robustness): surface
-sampling, farthest point sampling, the per-shape clouds of the dataset, and the perturbed inputs of the robustness tables."""
+sampling, farthest point sampling, the per-shape clouds of the dataset, and the perturbed
+inputs of the robustness tables."""
 
 from __future__ import annotations
 
@@ -184,9 +185,9 @@ def make_clouds(
     random: int = 1500,
     rng: np.random.Generator | None = None,
 ) -> dict[str, np.ndarray]:
-    """The two clouds of one shape (docs/paper-numbers.md#dataset-generation), float32: "fps" = farthest point sampling of
-    `surface` area-weighted samples; "random" = a uniform random subset of those samples
-    (itself a uniform surface sample). rng=None means default_rng(0)."""
+    """The two clouds of one shape (docs/paper-numbers.md#dataset-generation), float32: "fps" =
+    farthest point sampling of `surface` area-weighted samples; "random" = a uniform random
+    subset of those samples (itself a uniform surface sample). rng=None means default_rng(0)."""
     rng = np.random.default_rng(0) if rng is None else rng
     dense = sample_surface(mesh, surface, rng)
     pick = rng.choice(surface, size=random, replace=False)
@@ -217,7 +218,8 @@ def load_clouds(path: str | Path) -> dict[str, np.ndarray]:
         with np.load(path, allow_pickle=False) as data:
             return {k: data[k] for k in data.files}
     except (OSError, ValueError, EOFError, zipfile.BadZipFile) as exc:
-        raise UserError(path, f"not a readable point-cloud .npz ({one_line(exc)})", "delete it and rerun the points step") from None
+        raise UserError(path, f"not a readable point-cloud .npz ({one_line(exc)})",
+                        "delete it and rerun the points step") from None
 
 
 def eval_pick(n_random: int, n_pick: int, seed: int, shape_id: str) -> np.ndarray:

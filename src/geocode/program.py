@@ -23,7 +23,7 @@ from types import ModuleType
 import numpy as np
 import trimesh
 
-from geocode.config import registry  # noqa: F401 (re-exported)
+from geocode.config import registry
 from geocode.errors import UserError
 from geocode.expr import Expr
 from geocode.paths import program_path, recipe_path

@@ -13,14 +13,7 @@ import numpy as np
 from PIL import Image, ImageDraw
 
 from geocode import meshio
-from geocode.blender.scene import (
-    MARGIN,
-    Camera,
-    RenderScene,
-    camera_location,
-    render_still,
-    set_mesh_data,
-)
+from geocode.blender.scene import Camera, RenderScene, render_still, set_mesh_data
 
 log = logging.getLogger(__name__)
 
@@ -131,41 +124,6 @@ def grid(images: list[Image.Image], captions: list[str], columns: int = 4) -> Im
         sheet.paste(img, (x, y))
         draw.text((x + 4, y + 4), caption, fill=(60, 60, 60))
     return sheet
-
-
-def points_png(points: np.ndarray, size: int = 256) -> Image.Image:
-    """A cloud on the unit sphere seen from the gallery's camera: dots, nearer ones darker."""
-    eye = np.array(camera_location(VIEW))
-    back = eye / np.linalg.norm(eye)                       # towards the camera
-    right = np.cross([0.0, 0.0, 1.0], back)
-    right /= np.linalg.norm(right)
-    up = np.cross(back, right)
-    pts = np.asarray(points, dtype=np.float64)
-    u = (pts @ right / (2 * MARGIN) + 0.5) * size
-    v = (0.5 - pts @ up / (2 * MARGIN)) * size
-    depth = pts @ back                                     # larger = nearer
-    img = Image.new("RGB", (size, size), "white")
-    draw = ImageDraw.Draw(img)
-    for i in np.argsort(depth):                            # far first, near on top
-        shade = int(170 - 130 * (depth[i] + 1) / 2)
-        draw.ellipse((u[i] - 1, v[i] - 1, u[i] + 1, v[i] + 1), fill=(shade, shade, shade + 30))
-    return img
-
-
-def render_preview(user_input, mesh, out_png: str | Path) -> Path:
-    """The input (a drawing or a cloud) beside the shaded result, in one PNG."""
-    size = shaded_renderer().scene.render.resolution_x
-    if user_input.kind == "sketch":
-        pixels = (user_input.data[0] * 255).astype(np.uint8)
-        left = Image.fromarray(pixels).convert("RGB").resize((size, size), Image.NEAREST)
-    else:
-        left = points_png(user_input.data, size)
-    with tempfile.TemporaryDirectory() as tmp:
-        shaded_renderer().render(mesh, Path(tmp) / "result.png")
-        right = on_white(Image.open(Path(tmp) / "result.png"))
-    with meshio.atomic_path(out_png) as tmp_png:
-        grid([left, right], ["input", "result"], columns=2).save(tmp_png, format="PNG")
-    return Path(out_png)
 
 
 def render_strip(meshes, out_png: str | Path) -> Path:

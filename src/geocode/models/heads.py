@@ -111,7 +111,8 @@ class Decoders(nn.Module):
         self._forget_stack()
         return super()._apply(fn, *args, **kwargs)
 
-    def loss(self, outputs: Mapping[str, torch.Tensor], labels: torch.Tensor, columns: Mapping[str, int]) -> torch.Tensor:
+    def loss(self, outputs: Mapping[str, torch.Tensor], labels: torch.Tensor,
+             columns: Mapping[str, int]) -> torch.Tensor:
         """sum over parameters of CE (classification) or MSE (regression).
 
         Shapes: outputs {name: (B, width)}, labels (B, P) int64 classes -> ().

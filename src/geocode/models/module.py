@@ -71,7 +71,8 @@ class GeoCodeModule(Network, pl.LightningModule):
         self.save_hyperparameters(
             {"heads": heads, "variant": variant, "k": k, "edge_channels": list(edge_channels),
              "point_channels": point_channels, "sketch_channels": list(sketch_channels),
-             "sketch_pool": sketch_pool, "hidden": list(hidden), "dropout": dropout, "fast": fast, "embedding_norm": embedding_norm,
+             "sketch_pool": sketch_pool, "hidden": list(hidden), "dropout": dropout, "fast": fast,
+             "embedding_norm": embedding_norm,
              "lr": lr, "step_size": step_size, "gamma": gamma, "schedule": schedule,
              "warmup_epochs": warmup_epochs, "modalities": modalities}
         )

@@ -62,7 +62,8 @@ class Branch(nn.Module):
             self.sketch = VGGSketchEncoder(sketch_channels, out_dim=2 * point_channels, pool_size=sketch_pool)
         # A BatchNorm per modality on its embedding: shared decoders then read inputs of one
         # scale (a DGCNN pools rectified features; the sketch encoder ends with a linear layer).
-        self.norms = nn.ModuleDict({m: nn.BatchNorm1d(2 * point_channels) for m in modalities} if embedding_norm else {})
+        self.norms = nn.ModuleDict({m: nn.BatchNorm1d(2 * point_channels) for m in modalities}
+                                   if embedding_norm else {})
         keys = modalities if separate else ("common",)
         self.decoders = nn.ModuleDict(
             {key: Decoders(specs, 2 * point_channels, hidden, dropout, regression) for key in keys}

@@ -34,7 +34,8 @@ class VGGSketchEncoder(nn.Module):
             if c == "M":
                 layers.append(nn.MaxPool2d(kernel_size=2, stride=2))
                 continue
-            layers += [nn.Conv2d(width, int(c), 3, padding=1, bias=False), nn.BatchNorm2d(int(c)), nn.ReLU(inplace=True)]
+            layers += [nn.Conv2d(width, int(c), 3, padding=1, bias=False), nn.BatchNorm2d(int(c)),
+                       nn.ReLU(inplace=True)]
             width = int(c)
         # Channels-last convolutions are about 1.4x faster on the CPU (oneDNN) and as fast on GPUs;
         # a one-channel input has no layout of its own, so the weights carry it.

@@ -36,6 +36,7 @@ from scipy.spatial import cKDTree
 from geocode.meshio import normalise_unit_sphere
 from geocode.metrics import quick_tree
 from geocode.points import sample_surface
+from geocode.reconstruct.pose import turn_z
 
 FIT_POINTS = 2048    # points sampled on each candidate (fixed seed: a deterministic objective)
 SIGMA = 0.15         # CMA-ES's initial step, in units of each coordinate's range
@@ -65,9 +66,8 @@ class Pose:
 
     def matrix(self) -> np.ndarray:
         """The 4x4 transform, program frame -> the input's (normalised) frame."""
-        c, s = math.cos(self.turn), math.sin(self.turn)
         m = np.eye(4)
-        m[:3, :3] = self.scale * np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+        m[:3, :3] = self.scale * turn_z(math.degrees(self.turn))
         m[:3, 3] = self.offset
         return m
 
@@ -77,9 +77,7 @@ class Pose:
 
     def then(self, other: Pose) -> Pose:
         """This pose followed by `other`."""
-        c, s = math.cos(other.turn), math.sin(other.turn)
-        rot = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-        offset = other.scale * rot @ np.asarray(self.offset) + np.asarray(other.offset)
+        offset = other.scale * turn_z(math.degrees(other.turn)) @ np.asarray(self.offset) + np.asarray(other.offset)
         return Pose(turn=self.turn + other.turn, scale=self.scale * other.scale,
                     offset=tuple(float(o) for o in offset))
 

@@ -75,12 +75,7 @@ def turns(k: int = 4) -> list[np.ndarray]:
     the front search (4 for furniture drawn square to its axes; 8 or 12 for the odd scan)."""
     if k < 1:
         raise ValueError("turns: k must be at least 1")
-    out = []
-    for i in range(k):
-        a = 2 * np.pi * i / k
-        c, s = np.cos(a), np.sin(a)
-        out.append(np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]]))
-    return out
+    return [turn_z(360.0 * i / k) for i in range(k)]
 
 
 # -- up axis ------------------------------------------------------------------------------------

@@ -23,6 +23,7 @@ import trimesh
 from geocode.meshio import normalise_unit_sphere, read_obj
 from geocode.metrics import chamfer
 from geocode.points import load_clouds, sample_surface
+from geocode.reconstruct.fit import turn_about_z
 
 SCREEN_POINTS = 256
 RERANK = 8
@@ -36,12 +37,6 @@ class Match:
     mesh_path: Path
     turn: float          # radians about +Z that bring the training shape onto the input
     chamfer: float       # plain Chamfer distance at that turn
-
-
-def turned(points: np.ndarray, angle: float) -> np.ndarray:
-    c, s = math.cos(angle), math.sin(angle)
-    rot = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-    return np.asarray(points, dtype=np.float64) @ rot.T
 
 
 class TrainingShapes:
@@ -75,7 +70,7 @@ class TrainingShapes:
         out = np.empty((len(self.ids), len(turns)))
         n = self.points_per_shape
         for j, angle in enumerate(turns):
-            back = turned(q, -angle).astype(np.float32)          # the query in the shapes' frame
+            back = turn_about_z(q, -angle).astype(np.float32)          # the query in the shapes' frame
             lifted = np.concatenate([back, np.sum(back * back, axis=1, keepdims=True),
                                      np.ones((len(back), 1), np.float32)], axis=1)
             for start in range(0, len(self.ids), SCREEN_CHUNK):
@@ -106,7 +101,7 @@ class TrainingShapes:
         for flat in np.argsort(coarse, axis=None)[:max(RERANK, 2 * k)]:
             i, j = np.unravel_index(flat, coarse.shape)
             mesh = normalise_unit_sphere(read_obj(self.mesh_paths[i]))
-            points = turned(sample_surface(mesh, n, np.random.default_rng(1)), turns[j])
+            points = turn_about_z(sample_surface(mesh, n, np.random.default_rng(1)), turns[j])
             match = Match(self.ids[i], self.mesh_paths[i], float(turns[j]), chamfer(points, query))
             if i not in best or match.chamfer < best[i].chamfer:
                 best[int(i)] = match

@@ -37,12 +37,13 @@ time, then every shown continuous parameter and camera coordinate +-step one at 
 the continuous sweep first: a switch judged on a shape fitted around the start's structure;
 `fit.sweep_discrete`, `fit.sweep_continuous`), keeping what helps (coordinate sweeps: one
 parameter mostly moves one part of the drawing, and the network's answer is near, so single
-moves judged alone beat a population of 60-dimensional random moves at these budgets); then CMA-ES with per-coordinate steps on
-everything with what is left. The objective adds to the drawing distance PRIOR * |x - x0|^2 over the parameters'
-unit-box coordinates (x0: the start's): one view leaves depth undecided, and where the
-drawing does not tell, the network's answer should stand (on chair test sketches it took the
-fitted Chamfer distance from 0.7x to about 0.5x of the network's). The best shape seen is
-the answer, so the fit never ends farther from the drawing than the start it searched from.
+moves judged alone beat a population of 60-dimensional random moves at these budgets); then
+CMA-ES with per-coordinate steps on everything with what is left. The objective adds to the
+drawing distance PRIOR * |x - x0|^2 over the parameters' unit-box coordinates (x0: the
+start's): one view leaves depth undecided, and where the drawing does not tell, the network's
+answer should stand (on chair test sketches it took the fitted Chamfer distance from 0.7x to
+about 0.5x of the network's). The best shape seen is the answer, so the fit never ends farther
+from the drawing than the start it searched from.
 Branches, measured on 30 test sketches of the trained cameras (`geocode bench fit <domain>
 --modality sketch --n 30`, 800 evaluations), the fitted Chamfer distance against the network's:
 three branches took the chair from 0.48x to 0.38x and the cabinet from 0.42x to 0.39x; the
@@ -62,6 +63,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from geocode.meshio import normalise_unit_sphere
 from geocode.reconstruct.fit import (
     SearchSpace,
     Start,
@@ -74,7 +76,6 @@ from geocode.reconstruct.fit import (
     sweep_discrete,
 )
 from geocode.reconstruct.linedraw import SIZE, DrawingDistance, Outline, View, stroke_mask, strokes
-from geocode.meshio import normalise_unit_sphere
 
 # (azimuth, elevation) degrees: the dataset's trained views and their mirror images, views
 # every 20 degrees of azimuth from the front to either side at the dataset's elevation, then

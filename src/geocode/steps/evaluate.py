@@ -272,7 +272,8 @@ def metrics_step(cfg: DictConfig, domain: str, variant: str, predictions: Path, 
     full = robustness(variant)
     rows = []
     for rec in table[KEYS].to_dict("records"):
-        pred = read_obj(paths.rebuilt_mesh(rebuilt, rec["condition"], rec["id"]), "delete it and rerun the rebuild step")
+        pred = read_obj(paths.rebuilt_mesh(rebuilt, rec["condition"], rec["id"]),
+                        "delete it and rerun the rebuild step")
         targets = gt_meshes.items() if rec["modality"] == "baseline" else [(rec["id"], gt_meshes[rec["id"]])]
         clean = rec["source"] == "test" and not rec["noise"] and not rec["sparse"]
         stable = np.nan

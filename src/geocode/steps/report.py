@@ -1,7 +1,7 @@
-"""The report step (workflow/rules/tables.smk): an HTML page that shows, per domain, the learning curves of each modality
-(train and validation accuracy and loss per epoch, with the majority bar), the validation
-accuracy of every parameter, and for a few test shapes the input sketch and point cloud
-beside the ground truth and the shapes rebuilt from the predictions."""
+"""The report step (workflow/rules/tables.smk): an HTML page that shows, per domain, the
+learning curves of each modality (train and validation accuracy and loss per epoch, with the
+majority bar), the validation accuracy of every parameter, and for a few test shapes the input
+sketch and point cloud beside the ground truth and the shapes rebuilt from the predictions."""
 
 from __future__ import annotations
 
@@ -69,7 +69,8 @@ def curve_svg(curves: pd.DataFrame, metric: str, majority: float | None = None,
            f"<text x='{x1}' y='{height - 8}' font-size='11' text-anchor='end'>{last}</text>",
            f"<text x='{x0 - 4}' y='{y1 + 10}' font-size='11' text-anchor='end'>{hi:.2g}</text>",
            f"<text x='{x0 - 4}' y='{y0}' font-size='11' text-anchor='end'>{lo:.2g}</text>",
-           f"<text x='{x1 - 4}' y='{y1 + 14}' font-size='12' text-anchor='end'>{'accuracy' if metric == 'acc' else metric}</text>"]
+           f"<text x='{x1 - 4}' y='{y1 + 14}' font-size='12' text-anchor='end'>"
+           f"{'accuracy' if metric == 'acc' else metric}</text>"]
     if majority is not None:
         out.append(f"<line x1='{x0}' x2='{x1}' y1='{sy(majority):.1f}' y2='{sy(majority):.1f}' "
                    "stroke='#888' stroke-dasharray='2 2'><title>majority</title></line>")

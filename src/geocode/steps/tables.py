@@ -1,5 +1,6 @@
-"""The tables step (workflow/rules/tables.smk): per-sample metrics -> the paper's tables (docs/paper-numbers.md#tables) as CSV, Markdown
-and LaTeX, with the paper's values beside ours (no bpy, no torch).
+"""The tables step (workflow/rules/tables.smk): per-sample metrics -> the paper's tables
+(docs/paper-numbers.md#tables) as CSV, Markdown and LaTeX, with the paper's values beside ours
+(no bpy, no torch).
 
 The metrics frame has one row per (domain, variant, condition, id) with the columns
 `modality` (pc | sketch | gt | baseline), `source` (test | s10 | s100: the test meshes or
@@ -135,14 +136,19 @@ Cells = dict[tuple[str, str], pd.Series]
 # ---------------------------------------------------------------- statistics
 
 
-def bootstrap_ci(values, resamples: int = BOOTSTRAP, seed: int = 0) -> tuple[float, float]:
-    """95% percentile bootstrap interval of the mean (NaN for no values)."""
-    values = np.asarray(values, dtype=float)
-    if not len(values):
-        return np.nan, np.nan
-    picks = np.random.default_rng(seed).integers(0, len(values), (resamples, len(values)))
-    low, high = np.percentile(values[picks].mean(axis=1), [2.5, 97.5])
-    return float(low), float(high)
+def bootstrap_ci(*samples, statistic: Callable = np.mean, resamples: int = BOOTSTRAP,
+                 seed: int = 0) -> tuple[float, float]:
+    """95% percentile bootstrap interval (`scipy.stats.bootstrap`, seeded) of `statistic`
+    (called as statistic(*samples, axis=...)), the shapes resampled: one value per shape in
+    each sample, paired by position; by default the mean of one sample. NaN for no shapes,
+    the statistic itself for one."""
+    samples = [np.asarray(sample, dtype=float) for sample in samples]
+    if len(samples[0]) < 2:
+        value = float(statistic(*samples, axis=-1)) if len(samples[0]) else np.nan
+        return value, value
+    interval = stats.bootstrap(samples, statistic, paired=True, vectorized=True, method="percentile",
+                               n_resamples=resamples, rng=np.random.default_rng(seed)).confidence_interval
+    return float(interval.low), float(interval.high)
 
 
 def wilcoxon_p(a: pd.Series, b: pd.Series) -> float:

@@ -213,7 +213,8 @@ def majority_per_parameter(cfg: DictConfig, recipe) -> dict[str, float]:
     """{parameter: val accuracy of its most frequent train class}, in recipe order."""
     from geocode.recipe import load_recipes
 
-    classes = {split: recipe.class_matrix(load_recipes(paths.recipes_file(paths.split_dir(cfg, cfg.domain.name, split))))
+    classes = {split: recipe.class_matrix(
+                   load_recipes(paths.recipes_file(paths.split_dir(cfg, cfg.domain.name, split))))
                for split in ("train", "val")}
     common = np.array([np.bincount(column).argmax() for column in classes["train"].T])  # (P,)
     hits = (classes["val"] == common).mean(axis=0)  # (P,)
@@ -258,6 +259,7 @@ def check_compatible(path: Path, model: GeoCodeModule) -> None:
     bad = sorted(set(mine) ^ set(theirs)) or [k for k in mine if mine[k].shape != theirs[k].shape]
     if bad or ckpt["hyper_parameters"].get("heads") != model.hparams.heads:
         what = bad[0] if bad else "heads"
-        raise CheckpointError(path, f"checkpoint of a different model ({what})", "delete it or train into another --out")
+        raise CheckpointError(path, f"checkpoint of a different model ({what})",
+                              "delete it or train into another --out")
 
 

@@ -45,7 +45,8 @@ def load_sketch_u8(path: str | Path) -> np.ndarray:
         with Image.open(path) as im:
             return np.asarray(im.convert("L"), dtype=np.uint8)
     except (OSError, ValueError) as exc:
-        raise UserError(path, f"not a readable sketch PNG ({one_line(exc)})", "delete it and rerun the sketch step") from None
+        raise UserError(path, f"not a readable sketch PNG ({one_line(exc)})",
+                        "delete it and rerun the sketch step") from None
 
 
 def _load_npz(path: Path) -> tuple[np.ndarray, np.ndarray]:
