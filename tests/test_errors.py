@@ -88,7 +88,7 @@ CONFIG_CASES = {
     "no training camera": (override("data.sketch.cameras=[{name:a,azimuth:1,train:false}]"),
                            ["data.sketch.cameras", "training camera"]),
     "noise negative": (override("eval.noise=[-0.1]"), ["eval.noise=[-0.1]"]),
-    "decode unknown": (override("eval.decode=mode"), ["eval.decode=mode", "argmax or median"]),
+    "decode unknown": (override("eval.decode=mode"), ["eval.decode=mode", "argmax, median or mean"]),
     "sparse zero": (override("eval.sparse=[0]"), ["eval.sparse=[0]"]),
     "simplify one": (override("eval.simplify=[1]"), ["eval.simplify=[1]"]),
     "chamfer points": (override("eval.chamfer_points=0"), ["eval.chamfer_points=0"]),

@@ -446,3 +446,38 @@ def test_reader_gives_the_expected_value_of_shown_parameters():
     first, second = read(np.ones((2, 1, 8, 8), dtype=np.float32))
     assert first == {"height": pytest.approx(0.375)}
     assert second == {"height": pytest.approx(1.0), "arm": pytest.approx(0.5 / 0.6)}
+
+
+def test_the_mean_read_takes_the_expected_value_of_each_shown_continuous_parameter():
+    """eval.decode=mean: a continuous parameter the network sees as present takes the expected
+    value of its distribution (off the class grid); a hidden one keeps the existence class's
+    default; discrete ones keep their likeliest class. The median read stays on the grid."""
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    from geocode.checkpoints import predicted_values
+    from geocode.models.heads import Decoders
+    from geocode.recipe import RecipeParameter
+
+    height = RecipeParameter("height", "float", 0.0, 1.0, 0.5, 3, np.array([0.0, 0.5, 1.0]))
+    legs = RecipeParameter("legs", "int", 3, 4, 4, None, np.array([3.0, 4.0]))
+    arm = RecipeParameter("arm", "float", 0.0, 2.0, 1.0, 2, np.array([0.0, 2.0]), visible_if=object())
+    specs = [{"name": p.name, "n_classes": p.n_classes, "continuous": p.kind == "float",
+              "existence": p.has_existence} for p in (height, legs, arm)]
+    decoders = Decoders(specs, in_dim=8)
+    logits = {"height": torch.log(torch.tensor([[0.5, 0.25, 0.25], [0.1, 0.1, 0.8]])),
+              "legs": torch.tensor([[0.0, 1.0], [1.0, 0.0]]),
+              "arm": torch.log(torch.tensor([[0.1, 0.3, 0.6], [0.45, 0.25, 0.3]]))}
+    model = SimpleNamespace(parameter_names=["height", "legs", "arm"],
+                            classes=lambda out, modality, decode: torch.stack(
+                                list(decoders.classes(out, decode).values()), dim=1))
+    params = {p.name: p for p in (height, legs, arm)}
+    recipe = SimpleNamespace(parameters=[height, legs, arm], values_from_classes=lambda idx: {
+        n: float(params[n].classes[c]) if c < params[n].n_values else params[n].default for n, c in idx.items()})
+
+    first, second = predicted_values(model, recipe, logits, "points", "mean")
+    assert first == {"height": pytest.approx(0.375), "legs": 4.0, "arm": 1.0}        # arm hidden: its default
+    assert second == {"height": pytest.approx(0.85), "legs": 3.0, "arm": pytest.approx(0.5 / 0.7)}
+    assert predicted_values(model, recipe, logits, "points", "median") == [
+        {"height": 0.0, "legs": 4.0, "arm": 1.0}, {"height": 1.0, "legs": 3.0, "arm": 0.0}]

@@ -4,6 +4,7 @@ classes, without Lightning (so `geocode reconstruct` and `predict` start fast).
     load_model(checkpoint) -> GeoCodeNet  # eval mode, weights_only loading
     predict_classes(model, points=... | sketches=...) -> (N, P) int64
     predict(checkpoint, points=None, sketches=None) -> {"points": (N, P), "sketch": (N, P)}
+    predict_values(model, recipe, modality, inputs, decode) -> [{parameter: raw value}]
     ranked_prediction(model, recipe, modality, data, decode) -> (values, {parameter: top classes' values})
     reader(model, recipe, modality)(inputs) -> [{continuous parameter: expected value}]
 """
@@ -143,6 +144,52 @@ def predict(checkpoint: str | Path, points=None, sketches=None, batch_size: int 
     return result
 
 
+def predicted_values(model, recipe, outputs: Mapping[str, torch.Tensor], modality: str,
+                     decode: str) -> list[dict[str, float]]:
+    """Raw values per input from the head outputs of one modality (`decode`: eval.decode). The
+    mean read takes each continuous parameter that the network sees as present at the expected
+    value of its distribution over the value classes: the value nearest the truth in squared
+    distance, as the Chamfer distance counts it (docs/fidelity.md, Reading the classifier)."""
+    classes = model.classes(outputs, modality, decode).tolist()
+    rows = [recipe.values_from_classes(dict(zip(model.parameter_names, c, strict=True))) for c in classes]
+    if decode != "mean":
+        return rows
+    column = {name: j for j, name in enumerate(model.parameter_names)}
+    for p in recipe.parameters:
+        if p.kind != "float" or outputs[p.name].shape[1] != p.n_classes:   # discrete, or regressed
+            continue
+        expected = expected_values(outputs[p.name], p)
+        for row, c, value in zip(rows, classes, expected.tolist(), strict=True):
+            if c[column[p.name]] < p.n_values:                              # not the existence class
+                row[p.name] = value
+    return rows
+
+
+def expected_values(logits: torch.Tensor, parameter) -> np.ndarray:
+    """The expected raw value of a continuous parameter under the predicted distribution over
+    its value classes (the existence class left out). Shapes: (B, n_classes) -> (B,)."""
+    shown = torch.softmax(logits.float(), dim=1)[:, :parameter.n_values].numpy()
+    return shown @ np.asarray(parameter.classes, dtype=np.float64) / np.maximum(shown.sum(axis=1), 1e-12)
+
+
+def predict_values(model, recipe, modality: str, inputs: np.ndarray, decode: str,
+                   batch_size: int = 64) -> list[dict[str, float]]:
+    """`predicted_values` of a batch of inputs of one modality ("points": (N, M, 3); "sketch":
+    (N, 1, H, W) or (N, H, W)), in eval mode."""
+    key = "points" if modality == "points" else "sketches"
+    inputs = np.asarray(inputs)
+    if modality == "sketch" and inputs.ndim == 3:
+        inputs = inputs[:, None]
+    model.eval()
+    device = next(model.parameters()).device
+    rows = []
+    with torch.inference_mode():
+        for s in range(0, len(inputs), batch_size):
+            outputs = model(**{key: _as_tensor(inputs[s : s + batch_size], device)})[modality]
+            rows += predicted_values(model, recipe, {k: v.cpu() for k, v in outputs.items()}, modality, decode)
+    return rows
+
+
 def default_checkpoint(cfg, domain: str) -> Path:
     """The domain's joint model of the run in `cfg`: what `geocode reconstruct` uses."""
     return paths.checkpoint_file(paths.run_dir(cfg, domain, "joint"))
@@ -161,10 +208,8 @@ def ranked_predictions(model, recipe, modality: str, batch: np.ndarray, decode: 
     x = torch.as_tensor(batch, dtype=torch.float32)
     with torch.inference_mode():
         outputs = model(**{"points" if modality == "points" else "sketches": x})[modality]
-        best = model.classes(outputs, modality, decode).tolist()
     out = []
-    for b, classes in enumerate(best):
-        start = recipe.values_from_classes(dict(zip(model.parameter_names, classes, strict=True)))
+    for b, start in enumerate(predicted_values(model, recipe, outputs, modality, decode)):
         options, doubt = {}, {}
         for p in recipe.parameters:
             logits = outputs[p.name][b]
@@ -196,11 +241,10 @@ def reader(model, recipe, modality: str):
         for p in heads:
             if outputs[p.name].shape[1] != p.n_classes:   # a regression head
                 continue
-            prob = torch.softmax(outputs[p.name], dim=1).numpy()
-            shown = prob[:, :p.n_values]
-            value = shown @ p.classes / np.maximum(shown.sum(axis=1), 1e-12)
+            hidden = torch.softmax(outputs[p.name], dim=1)[:, -1].numpy() > 0.5
+            value = expected_values(outputs[p.name], p)
             for b in range(len(out)):
-                if not (p.has_existence and prob[b, -1] > 0.5):
+                if not (p.has_existence and hidden[b]):
                     out[b][p.name] = float(value[b])
         return out
 

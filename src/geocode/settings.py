@@ -231,9 +231,9 @@ class Eval(Group):
     simplify: each(whole(2)) = key("decimation factors of the test meshes (keep 1/f of the faces)")
     noise: each(number(0)) = key("Gaussian noise sigmas on the unit-sphere clouds")
     sparse: each(whole(1)) = key("point counts of the sparse random clouds")
-    decode: one_of("argmax", "median") = key(
-        "how a continuous parameter's class is read from its classification head: argmax (the paper's) "
-        "or median (of the predicted distribution)")
+    decode: one_of("argmax", "median", "mean") = key(
+        "how a continuous parameter's value is read from its classification head: argmax (the paper's), "
+        "median or mean (the expected value) of the predicted distribution")
     max_test_shapes: Shapes = key("evaluate on at most this many test shapes; null: all")
     variants: each(Name) = key("model variants the workflow trains and evaluates")
     ablations: each(Name) = key("decoder ablations trained for the ablation domains")

@@ -128,14 +128,16 @@ class Decoders(nn.Module):
         return total
 
     def classes(self, outputs: Mapping[str, torch.Tensor], decode: str = "argmax") -> dict[str, torch.Tensor]:
-        """Predicted class index per parameter; `decode` (eval.decode: argmax or median) reads a
-        continuous parameter's classification head. Shapes: {name: (B, width)} -> {name: (B,)}."""
+        """Predicted class index per parameter; `decode` (eval.decode: argmax, median or mean) reads a
+        continuous parameter's classification head (mean: the median's class, whose value
+        `checkpoints.predicted_values` then replaces by the expected one).
+        Shapes: {name: (B, width)} -> {name: (B,)}."""
         out = {}
         for spec in self.specs:
             name = spec["name"]
             if self.modes[name] == "reg":
                 out[name] = regression_classes(outputs[name], spec)
-            elif decode == "median" and spec["continuous"]:
+            elif decode in ("median", "mean") and spec["continuous"]:
                 out[name] = median_classes(outputs[name], spec)
             else:
                 out[name] = outputs[name].argmax(dim=1)

@@ -110,7 +110,7 @@ def model_input(cfg: DictConfig, domain: str, cond: dict, shape_id: str) -> tupl
 
 def predict_step(cfg: DictConfig, domain: str, checkpoint: Path, out: Path) -> str:
     """Predict every condition's test inputs, denormalise, and write one parquet of values."""
-    from geocode.checkpoints import load_model, predict_classes, ranked_prediction
+    from geocode.checkpoints import load_model, predict_values, ranked_prediction
     from geocode.recipe import load_recipe
     from geocode.steps.train_data import load_sketch
 
@@ -132,10 +132,10 @@ def predict_step(cfg: DictConfig, domain: str, checkpoint: Path, out: Path) -> s
             frame[OPTIONS] = [json.dumps(options) for _, options in ranked]
         elif cond["modality"] == "pc":
             batch = np.stack([point_input(cfg, domain, cond, i) for i in ids])
-            frame = pd.DataFrame(predicted_values(model, recipe, predict_classes(model, points=batch, decode=decode)))
+            frame = pd.DataFrame(predict_values(model, recipe, "points", batch, decode))
         else:
             batch = np.stack([load_sketch(sketch_path(cfg, domain, cond, i)) for i in ids])
-            frame = pd.DataFrame(predicted_values(model, recipe, predict_classes(model, sketches=batch, decode=decode)))
+            frame = pd.DataFrame(predict_values(model, recipe, "sketch", batch, decode))
         frames.append(frame.assign(**cond, id=shape_ids))
         log.info("%s: %d shapes in %.1f s", cond["condition"], len(shape_ids), time.perf_counter() - start)
     if full:
@@ -143,12 +143,6 @@ def predict_step(cfg: DictConfig, domain: str, checkpoint: Path, out: Path) -> s
     table = pd.concat(frames, ignore_index=True)
     write_parquet(out, table[KEYS + [c for c in table.columns if c not in KEYS]])
     return f"{domain}: {len(table)} predictions"
-
-
-def predicted_values(model, recipe, classes: np.ndarray) -> list[dict[str, float]]:
-    """Class indices (N, P) -> raw values per shape."""
-    return [recipe.values_from_classes(dict(zip(model.parameter_names, row, strict=True)))
-            for row in classes.tolist()]
 
 
 def mean_shape(cfg: DictConfig, domain: str, recipe) -> pd.DataFrame:
