@@ -128,8 +128,8 @@ def test_smoke_run_reaches_the_tables(smoke_run):
     assert set(predictions.modality) == {"sketch"} and set(predictions.source) == {"test"}   # clean sketches only
 
 
-@pytest.mark.parametrize("bench", [["turns", "vase", "--n", "1", "--budget", "3"],
-                                   ["fit", "vase", "--modality", "sketch", "--n", "1", "--budget", "12"]])
+@pytest.mark.parametrize("bench", [["turns", "vase", "-n", "1", "--budget", "3"],
+                                   ["fit", "vase", "--modality", "sketch", "-n", "1", "--budget", "12"]])
 def test_benchmarks_of_the_pose_and_the_drawing_fit_run_on_a_trained_model(smoke_run, monkeypatch,
                                                                            capsys, bench):
     import json

@@ -258,6 +258,6 @@ def check_compatible(path: Path, model: GeoCodeModule) -> None:
     bad = sorted(set(mine) ^ set(theirs)) or [k for k in mine if mine[k].shape != theirs[k].shape]
     if bad or ckpt["hyper_parameters"].get("heads") != model.hparams.heads:
         what = bad[0] if bad else "heads"
-        raise CheckpointError(path, f"checkpoint of a different model ({what})", "delete it or train into another --out")
+        raise CheckpointError(path, f"checkpoint of a different model ({what})", "delete it or train into another folder (-o)")
 
 
