@@ -315,7 +315,8 @@ def parser() -> argparse.ArgumentParser:
 
     for c in [*sub.choices.values(), *benchmarks.choices.values()]:
         if c.get_default("run") in OVERRIDES:
-            c.add_argument("overrides", nargs="*", metavar="key=value")
+            c.add_argument("overrides", nargs="*", metavar="key=value",
+                           help="the config's settings, e.g. profile=smoke (`geocode config --keys` lists them)")
     return p
 
 
