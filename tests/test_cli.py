@@ -2,13 +2,18 @@
 
 from __future__ import annotations
 
+import argparse
 import json
+import re
+import shlex
 import subprocess
 import sys
 
 import pytest
 
-from geocode.cli import main, parse_values
+from geocode.cli import main, parse, parse_values, parser
+from geocode.errors import UserError
+from geocode.paths import PROGRAMS_ENV, repo_root
 
 
 def geocode(*args: str) -> subprocess.CompletedProcess:
@@ -91,9 +96,9 @@ def test_bench_epoch_refuses_an_unknown_device_in_one_line():
 
 
 @pytest.mark.parametrize("args", [
-    ["gallery", "chair", "-o", "{tmp}/g.png", "--n", "100000000"],
+    ["gallery", "chair", "-o", "{tmp}/g.png", "-n", "100000000"],
     ["shape", "chair", "-o", "{tmp}/c.obj", "--png", "/proc/x.png"],
-    ["reconstruct", "vase", "{tmp}/x.obj", "-o", "{tmp}/out", "--refine", "1000000"],
+    ["reconstruct", "vase", "{tmp}/x.obj", "-o", "{tmp}/out", "--budget", "1000000"],
 ])
 def test_an_out_of_bound_size_or_unwritable_output_is_refused_before_blender_starts(args, tmp_path, monkeypatch, capsys):
     def started():
@@ -115,3 +120,157 @@ def test_a_shape_whose_picture_fails_leaves_no_obj(tmp_path, monkeypatch, capsys
     assert main(["shape", "vase", "-o", str(tmp_path / "c.obj"), "--png", str(tmp_path / "c.png")]) == 2
     assert "cannot be rendered" in capsys.readouterr().err
     assert not list(tmp_path.iterdir())
+
+
+# -- one dialect ------------------------------------------------------------------------------
+
+def subcommands(p: argparse.ArgumentParser, path: tuple[str, ...] = ()):
+    """(words, parser) of every command below `p` that runs something, however deep."""
+    subs = [a for a in p._actions if isinstance(a, argparse._SubParsersAction)]
+    if not subs:
+        yield path, p
+    for action in subs:
+        for name, child in action.choices.items():
+            yield from subcommands(child, (*path, name))
+
+
+def test_every_command_shows_examples_that_parse(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)       # the output options try their folder for real
+    commands = list(subcommands(parser()))
+    assert len(commands) >= 30 and ("bench", "fit") in dict(commands)
+    for words, command in commands:
+        examples = command.epilog.partition("examples:\n")[2].splitlines()
+        assert examples, words
+        for example in examples:
+            tokens = shlex.split(example, comments=True)
+            assert tokens[:len(words) + 1] == ["geocode", *words], example
+            parse(tokens[1:])
+    assert "is now" not in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("old, new", [
+    (["reconstruct", "vase", "x.obj", "-o", "out", "--refine", "7"],
+     ["reconstruct", "vase", "x.obj", "-o", "out", "--budget", "7"]),
+    (["train", "--out", "runs/x", "domain=vase"], ["train", "-o", "runs/x", "domain=vase"]),
+    (["gallery", "vase", "-o", "g.png", "--n", "5"], ["gallery", "vase", "-o", "g.png", "--shapes", "5"]),
+    (["bench", "program", "vase", "--n", "5"], ["bench", "program", "vase", "-n", "5"]),
+    (["bench", "fit", "vase", "--n", "5", "profile=smoke"], ["bench", "fit", "vase", "-n", "5", "profile=smoke"]),
+    (["bench", "turns", "vase", "--n", "5"], ["bench", "turns", "vase", "-n", "5"]),
+])
+def test_an_old_spelling_still_works_with_a_one_line_notice(old, new, tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    assert vars(parse(new)) == vars(parse(old))
+    renamed = next(a for a in old if a in ("--refine", "--out", "--n"))
+    current = {"--refine": "--budget", "--out": "-o/--output", "--n": "-n/--shapes"}[renamed]
+    assert capsys.readouterr().err == (f"geocode: {renamed} is now {current}; "
+                                       "the old name goes in the next release\n")
+    shown = command_help(old[:2] if old[0] == "bench" else old[:1])
+    assert not re.search(rf"(?<![\w-]){renamed}(?![\w-])", shown)    # hidden from --help
+
+
+def command_help(words: list[str]) -> str:
+    return dict(subcommands(parser()))[tuple(words)].format_help()
+
+
+@pytest.mark.parametrize("args", [
+    ["bench", "program", "vase", "--modality", "sketch"],     # fit's option
+    ["bench", "fit", "vase", "--clouds", "3"],                 # epoch's
+    ["bench", "epoch", "vase"],                                # epoch measures no domain
+    ["bench", "eval", "vase", "-o", "pages"],                  # real's and span's
+    ["bench", "program", "vase", "profile=smoke"],             # program reads no run
+    ["bench", "turns", "vase", "--camera", "novel"],
+    ["bench", "span", "vase"],                                 # span needs its folder
+])
+def test_a_benchmark_refuses_the_options_of_another(args, tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    assert main(args) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and err.startswith(f"geocode: {' '.join(args[:2])}: ")
+    assert f"see geocode {' '.join(args[:2])} --help" in err
+
+
+def test_the_benchmarks_that_read_a_run_measure_the_validation_split_unless_told(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    for words in (["fit", "chair"], ["turns", "chair"]):
+        assert parse(["bench", *words]).split == "val"
+        assert parse(["bench", *words, "--split", "test"]).split == "test"
+        assert "the tables report" in " ".join(command_help(["bench", words[0]]).split())
+    assert main(["bench", "fit", "chair", "--split", "train"]) == 2
+
+
+# -- every command line of the docs parses ----------------------------------------------------
+
+DOCS = [repo_root() / "README.md", *sorted((repo_root() / "docs").glob("*.md"))]
+SHOWN = re.compile(r"^(?:\.venv/bin/)?geocode\s")
+# What the docs write for a user's own names: <domain> a domain, any other <...> a name of a
+# file or folder; an optional [--option value] is given; "..." ends what is checked, and a line
+# that asks for --help only names its command.
+PLACEHOLDERS = {"<domain>": "chair", "<benchmark>": "fit", "--workers N": "--workers 2"}
+SKIPPED = {"geocode reconstruct chair <the 11 chairs>"}   # a sentence's words, its -o left out
+PROGRAMS = re.compile(r"^export GEOCODE_PROGRAMS=(\S+)$", re.M)   # a page about a user's own programs
+
+
+def shown_commands(text: str) -> list[str]:
+    """The `geocode ...` command lines of a Markdown text: lines of its ``` blocks and its
+    inline code."""
+    shown, block = [], False
+    for line in text.splitlines():
+        if line.strip().startswith("```"):
+            block = not block
+        elif block:
+            shown += [line.strip()] if SHOWN.match(line.strip()) else []
+        else:
+            shown += [code.strip() for code in re.findall(r"`([^`]+)`", line) if SHOWN.match(code.strip())]
+    return shown
+
+
+def words_of(shown: str) -> list[str]:
+    for placeholder, given in PLACEHOLDERS.items():
+        shown = shown.replace(placeholder, given)
+    shown = re.sub(r"<[^>]+>", "x", shown)
+    shown = re.sub(r"\[(-[^\]]*)\]", r"\1", shown)
+    words = [w for w in shlex.split(shown, comments=True)[1:] if w != "--help"]
+    return words[:words.index("...")] if "..." in words else words
+
+
+def names_a_command(words: list[str]) -> bool:
+    """Whether the words only name a command (`geocode reconstruct` in a sentence)."""
+    p = parser()
+    for word in words:
+        subs = [a for a in p._actions if isinstance(a, argparse._SubParsersAction)]
+        if not subs or word not in subs[0].choices:
+            return False
+        p = subs[0].choices[word]
+    return True
+
+
+def test_shown_commands_are_read_from_blocks_and_inline_code():
+    text = "Run `geocode gallery vase -o g.png` or\n```bash\ngeocode programs   # all\nls\n```\n`geocodes`"
+    assert shown_commands(text) == ["geocode gallery vase -o g.png", "geocode programs   # all"]
+    assert words_of("geocode bench fit <domain> [-n 10] --json") == ["bench", "fit", "chair", "-n", "10", "--json"]
+    assert words_of("geocode bench ...") == ["bench"] and names_a_command(["bench"])
+    assert not names_a_command(["bench", "vase"])
+
+
+def test_every_command_line_in_the_readme_and_docs_parses(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    failed, checked = [], 0
+    for doc in DOCS:
+        text = doc.read_text()
+        programs = PROGRAMS.search(text)
+        if programs:
+            monkeypatch.setenv(PROGRAMS_ENV, str(repo_root() / programs[1]))
+        else:
+            monkeypatch.delenv(PROGRAMS_ENV, raising=False)
+        for shown in shown_commands(text):
+            words = words_of(shown)
+            if names_a_command(words) or shown in SKIPPED:
+                continue
+            checked += 1
+            try:
+                parse(words)
+            except UserError as exc:
+                failed.append(f"{doc.name}: {shown}: {exc}")
+            if "is now" in (notice := capsys.readouterr().err):     # an old spelling
+                failed.append(f"{doc.name}: {shown}: {notice.strip()}")
+    assert checked >= 20 and not failed, "\n".join(failed)

@@ -77,7 +77,7 @@ def files(tmp_path_factory):
 @pytest.mark.parametrize("name", ["vase.obj", "vase.ply", "vase.stl", "vase.glb", "cloud.npy",
                                   "cloud.xyz", "cloud.ply", "drawing.jpg"])
 def test_every_input_kind_gives_values_mesh_preview_and_blend(files, tmp_path, capsys, name):
-    refine = ["--refine", "0"] if name.endswith(".jpg") else ["--refine", "6"]
+    refine = ["--budget", "0"] if name.endswith(".jpg") else ["--budget", "6"]
     code = main(["reconstruct", "vase", str(files["root"] / name), "-o", str(tmp_path),
                  "--checkpoint", str(files["ckpt"]), "--json", *refine])
     assert code == 0
@@ -96,11 +96,11 @@ def test_every_input_kind_gives_values_mesh_preview_and_blend(files, tmp_path, c
 
 
 def test_a_drawing_is_fitted_with_its_camera(files, tmp_path, capsys):
-    """--refine on a drawing searches shape and camera within the budget, and the page and
+    """--budget on a drawing searches shape and camera within the budget, and the page and
     the preview show our line drawing of the result between the drawing and the shape."""
     out = tmp_path / "out"
     assert main(["reconstruct", "vase", str(files["root"] / "drawing.jpg"), "-o", str(out),
-                 "--checkpoint", str(files["ckpt"]), "--json", "--refine", "6"]) == 0
+                 "--checkpoint", str(files["ckpt"]), "--json", "--budget", "6"]) == 0
     summary = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     assert summary["evaluations"] == 6
     assert set(summary["camera"]) == {"azimuth", "elevation", "roll", "scale", "offset"}
@@ -118,7 +118,7 @@ def test_the_in_place_mesh_lies_over_the_input(files, tmp_path):
     mesh.export(tmp_path / "far.obj")
     out = tmp_path / "out"
     assert main(["reconstruct", "vase", str(tmp_path / "far.obj"), "-o", str(out), "--up", "z",
-                 "--checkpoint", str(files["ckpt"]), "--refine", "4"]) == 0
+                 "--checkpoint", str(files["ckpt"]), "--budget", "4"]) == 0
     placed = trimesh.load(out / "far.in-place.obj", process=False)
     assert np.allclose(placed.bounds.mean(0), mesh.bounds.mean(0), atol=0.3 * 40)
     assert 0.5 < placed.extents.max() / mesh.extents.max() < 2.0
@@ -134,7 +134,7 @@ def test_a_folder_is_reconstructed_with_a_page(files, tmp_path, capsys):
     (folder / "broken.xyz").write_text("not a cloud\n")
     out = tmp_path / "out"
     assert main(["reconstruct", "vase", str(folder), "-o", str(out), "--recursive", "--json",
-                 "--checkpoint", str(files["ckpt"]), "--refine", "3", "--candidates", "2"]) == 0
+                 "--checkpoint", str(files["ckpt"]), "--budget", "3", "--candidates", "2"]) == 0
     summary = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     seconds = summary.pop("seconds_median"), *summary.pop("seconds_range")
     before, after = summary.pop("chamfer_before_median"), summary.pop("chamfer_after_median")
@@ -160,7 +160,7 @@ def test_a_y_up_file_comes_to_the_same_frame_as_a_z_up_one(files):
 
 
 def test_the_network_answer_is_the_nearest_of_its_feedback_rounds(files):
-    """--refine 0: the network's answer at its best turn, or one of its own feedback rounds
+    """--budget 0: the network's answer at its best turn, or one of its own feedback rounds
     where that lies nearer the input: never farther than the answer it started from."""
     from geocode.config import compose
     from geocode.reconstruct.fit import network_starts
@@ -250,7 +250,7 @@ def test_a_failure_in_the_last_output_leaves_none(files, tmp_path, capsys, monke
     monkeypatch.setattr(Program, "save_blend", broken_save)
     out = tmp_path / "out"
     assert main(["reconstruct", "vase", str(files["root"] / "vase.obj"), "-o", str(out),
-                 "--checkpoint", str(files["ckpt"]), "--refine", "0"]) == 2
+                 "--checkpoint", str(files["ckpt"]), "--budget", "0"]) == 2
     assert "cannot be saved" in capsys.readouterr().err
     assert not out.exists()
 
@@ -268,7 +268,7 @@ print("RESULT", json.dumps({k: (list(v) if hasattr(v, "__len__") else v) for k, 
 
 def test_blend_reopens_with_the_values_set(files, tmp_path):
     assert main(["reconstruct", "vase", str(files["root"] / "vase.obj"), "-o", str(tmp_path),
-                 "--checkpoint", str(files["ckpt"]), "--refine", "3"]) == 0
+                 "--checkpoint", str(files["ckpt"]), "--budget", "3"]) == 0
     values = yaml.safe_load((tmp_path / "vase.yaml").read_text())
     run = subprocess.run([sys.executable, "-c", REOPEN, str(tmp_path / "vase.blend")],
                          capture_output=True, text=True, timeout=300)

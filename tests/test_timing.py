@@ -40,3 +40,18 @@ def test_no_records_is_one_line(tmp_path, capsys):
     assert main(["timings", "--metadata", str(tmp_path / "none")]) == 2
     assert "no Snakemake records" in capsys.readouterr().err
     assert "no finished jobs" in run_summary(run_times(tmp_path, "mini", ["vase"], ["joint"]))
+
+
+def test_the_profile_is_chosen_by_an_override_as_everywhere_else(tmp_path, capsys):
+    record(tmp_path, "data/mini/vase/train/done/export-0.txt", "export", 100, 160, "logs/data/mini/export/vase-train-0.log")
+    record(tmp_path, "data/smoke/vase/train/done/export-0.txt", "export", 0, 9, "logs/data/smoke/export/vase-train-0.log", 2)
+    assert main(["timings", "profile=smoke", "--metadata", str(tmp_path), "--json"]) == 0
+    smoke = capsys.readouterr()
+    assert json.loads(smoke.out)["jobs"] == 1 and json.loads(smoke.out)["minutes"]["export"]["vase"] == 0.15
+    assert smoke.err == ""
+    assert main(["timings", "--profile", "smoke", "--metadata", str(tmp_path), "--json"]) == 0
+    old = capsys.readouterr()
+    assert old.out == smoke.out
+    assert old.err == "geocode: --profile is now profile=<name>; the old name goes in the next release\n"
+    assert main(["timings", "profile=huge", "--metadata", str(tmp_path)]) == 2
+    assert "profile" in capsys.readouterr().err

@@ -131,22 +131,40 @@ def test_smoke_run_reaches_the_tables(smoke_run):
     assert set(predictions.modality) == {"sketch"} and set(predictions.source) == {"test"}   # clean sketches only
 
 
-@pytest.mark.parametrize("bench", [["turns", "vase", "--n", "1", "--budget", "3"],
-                                   ["fit", "vase", "--modality", "sketch", "--n", "1", "--budget", "12"]])
-def test_benchmarks_of_the_pose_and_the_drawing_fit_run_on_a_trained_model(smoke_run, monkeypatch,
-                                                                           capsys, bench):
+@pytest.mark.parametrize("bench, split", [
+    (["turns", "vase", "-n", "1", "--budget", "3"], "val"),
+    (["fit", "vase", "--modality", "sketch", "-n", "1", "--budget", "12"], "val"),
+    (["fit", "vase", "--modality", "sketch", "--camera", "novel", "-n", "1", "--budget", "12"], "val"),
+    (["fit", "vase", "-n", "2", "--budget", "5", "--split", "test"], "test"),
+])
+def test_benchmarks_of_the_pose_and_the_fits_run_on_a_trained_model(smoke_run, monkeypatch, capsys, bench, split):
+    """On the validation split unless told; the dataset draws the validation shapes from the
+    trained cameras only, so the novel camera's drawings are rendered for the benchmark."""
     import json
 
+    import geocode.blender.sketch
+    import geocode.steps.evaluate
     from geocode.cli import main
 
+    chosen, rendered = [], []
+    split_ids, sketch_mesh = geocode.steps.evaluate.split_ids, geocode.blender.sketch.sketch_mesh
+    module = {"turns": "geocode.steps.evaluate", "fit": "geocode.bench.fit"}[bench[0]]
+    module = "geocode.bench.sketch_fit" if "sketch" in bench else module
+    monkeypatch.setattr(f"{module}.split_ids", lambda cfg, domain, s: chosen.append(s) or split_ids(cfg, domain, s))
+    monkeypatch.setattr(geocode.blender.sketch, "sketch_mesh",
+                        lambda mesh, out, cameras, *a: rendered.extend(cameras) or sketch_mesh(mesh, out, cameras, *a))
     monkeypatch.chdir(smoke_run)
     assert main(["bench", *bench, "--json", "profile=smoke"]) == 0
     result = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
-    if bench[0] == "turns":     # five turns of one test shape, each fitted in its own pose
+    assert chosen == [split] and result["split"] == split
+    assert [c.name for c in rendered] == (["az15"] if "novel" in bench else [])
+    if bench[0] == "turns":     # five turns of one validation shape, each fitted in its own pose
         assert result["shapes"] == 1 and len(result["files"][0]["distances"]) == 5
+        assert result["files"][0]["shape"].startswith("val-")
         assert result["worst_ratio"] >= 1.0 and result["median_distance"] > 0
     else:
-        assert result["shapes"] == 1 and result["budget"] == 12
+        option = {flag: int(value) for flag, value in zip(bench, bench[1:], strict=False) if flag in ("-n", "--budget")}
+        assert result["shapes"] == option["-n"] and result["budget"] == option["--budget"]
         assert 0 < result["chamfer_before"] and 0 < result["chamfer_after"]
 
 

@@ -22,7 +22,7 @@ LIMITS = [
     "It was trained on synthetic shapes in the program's own frame: a real input needs the pose "
     "search and the fit of `geocode reconstruct`, and without them it does worse than simply "
     "taking the nearest training shape.",
-    "A drawing is answered by the network, then fitted (`--refine`): the search draws the program "
+    "A drawing is answered by the network, then fitted (`--budget`): the search draws the program "
     "and compares the strokes, so a part the network misreads and one view shows little of (a "
     "vase's handle count or foot) often stays wrong, and against a sparse free-hand doodle the "
     "fit may add a part the doodle lacks (docs/wild.md, Drawings).",

@@ -15,6 +15,7 @@ import logging
 import os
 import signal
 import sys
+import textwrap
 from pathlib import Path
 
 from geocode.errors import Interrupted, UserError, import_blender, stop_signals_raise
@@ -55,17 +56,21 @@ class Parser(argparse.ArgumentParser):
     """argparse, with a usage mistake on one line like every other mistake."""
 
     def error(self, message):
-        raise UserError(self.prog.partition(" ")[2] or "command line", message, f"see {self.prog} --help")
+        raise usage_error(self.prog, message)
+
+
+def usage_error(prog: str, message: str) -> UserError:
+    """A mistake in the use of the command `prog` ("geocode bench fit")."""
+    return UserError(prog.partition(" ")[2] or "command line", message, f"see {prog} --help")
 
 
 def parse(argv: list[str] | None) -> argparse.Namespace:
     """The command line; a step's `key=value` overrides may also stand after its options."""
-    p = parser()
-    args, extra = p.parse_known_args(argv)
+    args, extra = parser().parse_known_args(argv)
     if extra and hasattr(args, "overrides") and all("=" in e and not e.startswith("-") for e in extra):
         args.overrides = [*args.overrides, *extra]
     elif extra:
-        p.error(f"unrecognized arguments: {' '.join(extra)}")
+        raise usage_error(args.prog, f"unrecognized arguments: {' '.join(extra)}")
     return args
 
 
@@ -116,6 +121,54 @@ def writable(text: str, folder: bool) -> Path:
         raise argparse.ArgumentTypeError(str(exc)) from None
 
 
+class Renamed(argparse.Action):
+    """An option's old spelling: it still works, with a one-line notice on stderr, and is hidden
+    from --help."""
+
+    def __init__(self, option_strings, dest, new: str, **kwargs):
+        super().__init__(option_strings, dest, help=argparse.SUPPRESS, **kwargs)
+        self.new = new
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        print(f"geocode: {option_string} is now {self.new}; the old name goes in the next release",
+              file=sys.stderr)
+        setattr(namespace, self.dest, values)
+
+
+def renamed(c: argparse.ArgumentParser, old: str, new: argparse.Action) -> None:
+    """`old` as a hidden spelling of the option `new` (the action add_argument returned)."""
+    c.add_argument(old, dest=new.dest, type=new.type, action=Renamed, new="/".join(new.option_strings),
+                   default=argparse.SUPPRESS)
+
+
+def command(sub, name: str, help: str, *examples: str) -> argparse.ArgumentParser:
+    """A subcommand, its --help closed by examples of its use."""
+    c = sub.add_parser(name, help=help, description=textwrap.fill(help, 80),
+                       epilog="examples:\n" + "".join(f"  {e}\n" for e in examples),
+                       formatter_class=argparse.RawDescriptionHelpFormatter)
+    c.set_defaults(prog=c.prog)    # whose --help a mistake points to
+    return c
+
+
+# The options every command spells the same way.
+BUDGET = "program evaluations of the fit"
+
+
+def budget_option(c, help: str) -> argparse.Action:
+    return c.add_argument("--budget", metavar="N", type=at_most(5000, "program evaluations", "the fit's curve flattens "
+                                                   "well before (docs/wild.md)", low=0), help=help)
+
+
+def shapes_option(c, high: int, why: str, help: str, default: int | None = None) -> None:
+    """-n/--shapes: how many shapes (the old --n still works)."""
+    renamed(c, "--n", c.add_argument("-n", "--shapes", metavar="N", type=at_most(high, "shapes", why), default=default,
+                                     help=help))
+
+
+SPLIT_HELP = ("the shapes measured: val (the validation split, where defaults are chosen) or test "
+              "(the shapes whose numbers the tables report; measure there only to report)")
+
+
 def parser() -> argparse.ArgumentParser:
     from geocode.config import registry
 
@@ -123,37 +176,43 @@ def parser() -> argparse.ArgumentParser:
     p = Parser(prog="geocode", description=__doc__.splitlines()[0])
     sub = p.add_subparsers(required=True, metavar="command")
 
-    c = sub.add_parser("programs", help="list the programs with their parameter counts")
+    c = command(sub, "programs", "list the programs with their parameter counts", "geocode programs")
     c.set_defaults(run=cmd_programs)
 
-    program = sub.add_parser("program", help="show or build one program").add_subparsers(required=True, metavar="action")
-    c = program.add_parser("show", help="parameters, ranges, classes and visibility rules")
+    program = command(sub, "program", "show or build one program",
+                      "geocode program show vase", "geocode program build vase -o vase.blend")
+    program = program.add_subparsers(required=True, metavar="action")
+    c = command(program, "show", "parameters, ranges, classes and visibility rules",
+                "geocode program show vase", "geocode program show chair --json")
     c.add_argument("domain", choices=domains)
     c.add_argument("--json", action="store_true")
     c.set_defaults(run=cmd_program_show)
-    c = program.add_parser("build", help="write the program as a .blend (and its manifest)")
+    c = command(program, "build", "write the program as a .blend (and its manifest)",
+                "geocode program build vase -o vase.blend --manifest vase.manifest.json")
     c.add_argument("domain", choices=domains)
     c.add_argument("-o", "--output", required=True, type=output_file, help="the .blend to write")
     c.add_argument("--manifest", type=output_file, help="also write the parameter manifest (JSON)")
     c.set_defaults(run=cmd_program_build)
 
-    c = sub.add_parser("shape", help="evaluate a program at given values and write an OBJ")
+    c = command(sub, "shape", "evaluate a program at given values and write an OBJ",
+                "geocode shape vase body_height=1.2 handle_count=2 -o vase.obj --png vase.png")
     c.add_argument("domain", choices=domains)
     c.add_argument("values", nargs="*", metavar="name=value")
     c.add_argument("-o", "--output", required=True, type=output_file)
     c.add_argument("--png", type=output_file, help="also render a picture of it")
     c.set_defaults(run=cmd_shape)
 
-    c = sub.add_parser("gallery", help="render 16 random shapes into one PNG")
+    c = command(sub, "gallery", "render random shapes (16 unless -n) into one PNG",
+                "geocode gallery vase -o gallery.png", "geocode gallery chair -n 32 --seed 1 -o chairs.png")
     c.add_argument("domain", choices=domains)
     c.add_argument("-o", "--output", required=True, type=output_file)
-    c.add_argument("--n", type=at_most(256, "shapes", "a sheet of more (4 to a row) is too tall to view"),
-                   default=16)
+    shapes_option(c, 256, "a sheet of more (4 to a row) is too tall to view", "shapes (default 16)", default=16)
     c.add_argument("--seed", type=at_least(0), default=0)
     c.set_defaults(run=cmd_gallery)
 
-    c = sub.add_parser("reconstruct", help="meshes, scans, point clouds or drawings -> parameters, "
-                                           "meshes, .blend, a page")
+    c = command(sub, "reconstruct", "meshes, scans, point clouds or drawings -> parameters, meshes, .blend, "
+                "a page", "geocode reconstruct chair scan.ply -o out/",
+                "geocode reconstruct vase drawings/ -o out/ --budget 2000 --candidates 3 -j 2")
     c.add_argument("domain", choices=domains)
     c.add_argument("input", type=Path, help="a file or a folder of them: mesh (.obj .ply .stl .off .glb "
                                             ".gltf), cloud (.xyz .txt .pts .csv .npy .npz, .ply) or drawing (.png .jpg)")
@@ -161,19 +220,18 @@ def parser() -> argparse.ArgumentParser:
                    help="folder for <input>.yaml|obj|in-place.obj|png|blend, index.html and summary.csv")
     c.add_argument("--recursive", action="store_true", help="a folder's subfolders too")
     c.add_argument("--checkpoint", type=Path, help="default: the domain's joint model of the run (paths.runs)")
-    c.add_argument("--refine", type=at_most(5000, "program evaluations", "the fit's curve flattens well "
-                                          "before (docs/wild.md)", low=0),
-                   help="program evaluations of the fit (default eval.reconstruct_budget; a drawing's: "
-                        "the domain's eval.sketch_fit_budget)")
+    renamed(c, "--refine", budget_option(c, f"{BUDGET} (default eval.reconstruct_budget; a drawing's: "
+                                            "the domain's eval.sketch_fit_budget; 0: the network's answer)"))
     c.add_argument("--up", default="auto", help="the input's up axis: auto (found), or x, y, z, -x, -y, -z")
     c.add_argument("--candidates", type=at_most(8, "answers", "more are rarely distinct", low=1), default=1,
                    help="write the K best distinct fitted programs (ranked on the page)")
-    c.add_argument("--workers", type=at_most(64, "processes", "one per core is enough", low=1),
+    c.add_argument("-j", "--workers", metavar="N", type=at_most(64, "processes", "one per core is enough", low=1),
                    help="processes that evaluate the fit's candidates, this one included (default: one per core, at most 8)")
     c.add_argument("--json", action="store_true")
     c.set_defaults(run=cmd_reconstruct)
 
-    c = sub.add_parser("mix", help="shape a with some parameters taken from shape b")
+    c = command(sub, "mix", "shape a with some parameters taken from shape b",
+                "geocode mix vase a.yaml b.yaml --take handle lid -o mixed.obj")
     c.add_argument("domain", choices=domains)
     c.add_argument("a", type=Path, help="YAML of parameter values (e.g. a dataset shape)")
     c.add_argument("b", type=Path)
@@ -182,7 +240,8 @@ def parser() -> argparse.ArgumentParser:
     c.add_argument("-o", "--output", required=True, type=output_file, help="the OBJ (its YAML beside it)")
     c.set_defaults(run=cmd_mix)
 
-    c = sub.add_parser("interpolate", help="a sequence of shapes from a to b, and a strip PNG")
+    c = command(sub, "interpolate", "a sequence of shapes from a to b, and a strip PNG",
+                "geocode interpolate chair a.yaml b.yaml --steps 6 -o morph/")
     c.add_argument("domain", choices=domains)
     c.add_argument("a", type=Path)
     c.add_argument("b", type=Path)
@@ -191,51 +250,25 @@ def parser() -> argparse.ArgumentParser:
     c.add_argument("-o", "--output", required=True, type=output_folder, help="folder for step-NN.obj|yaml, strip.png")
     c.set_defaults(run=cmd_interpolate)
 
-    addon = sub.add_parser("addon", help="the building blocks as a Blender extension").add_subparsers(required=True, metavar="action")
-    c = addon.add_parser("build", help="write the extension zip (install it in Blender from disk)")
+    addon = command(sub, "addon", "the building blocks as a Blender extension",
+                    "geocode addon build -o geocode_nodes.zip").add_subparsers(required=True, metavar="action")
+    c = command(addon, "build", "write the extension zip (install it in Blender from disk)",
+                "geocode addon build -o geocode_nodes.zip")
     c.add_argument("-o", "--output", type=output_file, default="geocode_nodes.zip")
     c.set_defaults(run=cmd_addon_build)
 
-    c = sub.add_parser("bench", help="measure a stage's throughput")
-    c.add_argument("stage", choices=["program", "dataset", "train", "epoch", "eval", "fit", "real", "span",
-                                     "turns"])
-    c.add_argument("domain", nargs="?", default="vase",
-                   help=f"the domain ({', '.join(domains)}); real: the folder of <domain>/ subfolders")
-    c.add_argument("folder", nargs="?", type=Path, help="span: the folder of real shapes")
-    c.add_argument("-o", "--output", type=output_folder,
-                   help="real, span: the folder of their pages (real: also each file's outputs, "
-                        "timed with the rest)")
-    c.add_argument("--up-truth", type=Path, help="real: YAML {file pattern: up axis} for the baselines "
-                                                 "and the up axis agreement")
-    c.add_argument("--budget", type=at_most(5000, "program evaluations", "the fit's curve flattens well "
-                                          "before (docs/wild.md)", low=0),
-                   help="real, turns: the fit's evaluations (default eval.reconstruct_budget); span: 2000; "
-                        "fit --modality sketch: the drawing fit's (default: the domain's eval.sketch_fit_budget)")
-    c.add_argument("--n", type=at_most(10000, "shapes", "a rate settles within a few hundred"),
-                   help="shapes (program: 200, fit: 20 test shapes, turns: 10)")
-    c.add_argument("--clouds", type=at_most(100000, "clouds", "ten paper-scale epochs; the time grows with it"),
-                   default=9330, help="epoch: clouds per epoch (paper-scale vase)")
-    c.add_argument("--sketches", type=at_most(200000, "sketches", "ten paper-scale epochs; the time grows with it"),
-                   default=18660, help=f"epoch: sketches per epoch (at most {SKETCHES_PER_CLOUD} per cloud)")
-    c.add_argument("--device", default="auto", help="epoch: auto (a GPU where there is one), cpu or cuda")
-    c.add_argument("--variant", default="joint", help="epoch: the model variant (joint, separate, regression, huang)")
-    c.add_argument("--points", type=at_most(10000, "points", "the neighbour search grows with their square "
-                                          "(19 times the memory of 2300)"), default=2300, help="epoch: points per cloud")
-    c.add_argument("--modality", choices=["points", "sketch"], default="points",
-                   help="fit: fit to the test clouds (points) or to the test sketches")
-    c.add_argument("--camera", choices=["trained", "novel"], default="trained",
-                   help="fit --modality sketch: sketches of the trained cameras or of the novel one")
-    c.add_argument("--stability", action="store_true",
-                   help="program: also the share of shapes that pass the drop test")
-    c.add_argument("--json", action="store_true")
-    c.add_argument("overrides", nargs="*", metavar="key=value", help="fit: the run's config (e.g. profile=smoke)")
-    c.set_defaults(run=cmd_bench)
+    bench = command(sub, "bench", "measure a stage's speed or the fit's quality (`geocode bench <benchmark> "
+                    "--help`: each one's options)", "geocode bench program vase --json",
+                    "geocode bench fit chair -n 20")
+    benchmarks = bench.add_subparsers(required=True, metavar="benchmark")
+    add_benchmarks(benchmarks, domains)
 
-    c = sub.add_parser("timings", help="where the last workflow run of a profile spent its time, per stage and domain")
-    c.add_argument("--profile", default="mini", help="the run's profile (default: mini)")
+    c = command(sub, "timings", "where the last workflow run of a profile spent its time, per stage and domain",
+                "geocode timings", "geocode timings profile=smoke --json")
     c.add_argument("--metadata", type=Path, default=Path(".snakemake/metadata"),
                    help="Snakemake's records of the outputs (in the folder the run started from)")
     c.add_argument("--json", action="store_true")
+    c.add_argument("--profile", action=Renamed, new="profile=<name>", default=None)
     c.set_defaults(run=cmd_timings)
 
     step = "pipeline step; takes Hydra overrides key=value"
@@ -244,35 +277,135 @@ def parser() -> argparse.ArgumentParser:
     metrics = (("--metrics",), dict(required=True, nargs="+", type=Path))
     to_file = (("-o", "--output"), dict(required=True, type=output_file))
     to_folder = (("-o", "--output"), dict(required=True, type=output_folder))
-    for name, help, run, arguments in (
-        ("sample", "sample the recipes of every split", cmd_sample, ()),
-        *((name, f"one shard of the {name} stage", fn, ((("--split",), dict(required=True)), shard))
+    run = "runs/mini/vase/joint"
+    for name, help, run_step, arguments, example in (
+        ("sample", "sample the recipes of every split", cmd_sample, (), "geocode sample domain=vase profile=smoke"),
+        *((name, f"one shard of the {name} stage", fn, ((("--split",), dict(required=True)), shard),
+           f"geocode {name} --split train --shard 0 domain=vase profile=smoke")
           for name, fn in (("export", cmd_export), ("sketch", cmd_sketch), ("points", cmd_points))),
         ("train", "train a model", cmd_train,
-         ((("--out",), dict(type=output_folder, help="run folder (default: <paths.runs>/<domain>/<variant>)")),)),
+         ((("-o", "--output"), dict(type=output_folder, help="run folder (default: <paths.runs>/<domain>/<variant>)")),),
+         "geocode train domain=chair model=separate -o runs/exp/chair-separate"),
         ("simplify", "decimate the test meshes into split test-s<factor>", cmd_simplify,
-         ((("--factor",), dict(required=True, type=at_least(1), help="one of eval.simplify")),)),
+         ((("--factor",), dict(required=True, type=at_least(1), help="one of eval.simplify")),),
+         "geocode simplify --factor 10 domain=vase"),
         ("predict", "predict every test condition with a checkpoint", cmd_predict,
-         ((("--checkpoint",), dict(required=True, type=Path)), to_file)),
-        ("rebuild", "rebuild one shard of predictions with the program", cmd_rebuild, (predictions, shard)),
+         ((("--checkpoint",), dict(required=True, type=Path)), to_file),
+         f"geocode predict --checkpoint {run}/checkpoints/best.ckpt -o predictions.parquet domain=vase"),
+        ("rebuild", "rebuild one shard of predictions with the program", cmd_rebuild, (predictions, shard),
+         f"geocode rebuild --predictions {run}/eval/predictions.parquet --shard 0 domain=vase"),
         ("metrics", "Chamfer distances and drop tests of a variant's rebuilt predictions (model=<variant>)",
-         cmd_metrics, (predictions, to_file)),
-        ("tables", "metrics files -> the paper's tables", cmd_tables, (metrics, to_folder)),
-        ("report", "an HTML page of inputs, ground truth and predictions", cmd_report, (metrics, to_folder)),
+         cmd_metrics, (predictions, to_file),
+         f"geocode metrics --predictions {run}/eval/predictions.parquet -o metrics.parquet domain=vase model=joint"),
+        ("tables", "metrics files -> the paper's tables", cmd_tables, (metrics, to_folder),
+         f"geocode tables --metrics {run}/eval/metrics.parquet -o tables/ domains=[vase]"),
+        ("report", "an HTML page of inputs, ground truth and predictions", cmd_report, (metrics, to_folder),
+         f"geocode report --metrics {run}/eval/metrics.parquet -o report/ domains=[vase]"),
     ):
-        c = sub.add_parser(name, help=f"{help} ({step})")
-        for flags, options in arguments:
-            c.add_argument(*flags, **options)
-        c.set_defaults(run=run)
-    c = sub.add_parser("config", help="print the composed config for these overrides",
-                       epilog="`geocode config --keys` lists the groups and every key with its meaning.")
+        c = command(sub, name, f"{help} ({step})", example)
+        added = [c.add_argument(*flags, **options) for flags, options in arguments]
+        if name == "train":
+            renamed(c, "--out", added[0])
+        c.set_defaults(run=run_step)
+    c = command(sub, "config", "print the composed config for these overrides",
+                "geocode config profile=paper domain=chair", "geocode config --keys   # every group and key, "
+                "with its meaning")
     c.add_argument("--keys", action="store_true", help="list the groups, and every key with its value and meaning")
     c.set_defaults(run=cmd_config)
 
-    for action in sub.choices.values():
-        if action.get_default("run") in STEPS:
-            action.add_argument("overrides", nargs="*", metavar="key=value")
+    for c in [*sub.choices.values(), *benchmarks.choices.values()]:
+        if c.get_default("run") in OVERRIDES:
+            c.add_argument("overrides", nargs="*", metavar="key=value",
+                           help="the config's settings, e.g. profile=smoke (`geocode config --keys` lists them)")
     return p
+
+
+def add_benchmarks(sub, domains: list[str]) -> None:
+    """`geocode bench <benchmark>`: each with its own options."""
+    c = command(sub, "program", "random shapes/s of a program (evaluation + OBJ), faces, loose parts",
+                "geocode bench program vase --json", "geocode bench program table -n 1000 --stability")
+    c.add_argument("domain", choices=domains)
+    shapes_option(c, 10000, "a rate settles within a few hundred", "shapes (default 200)", default=200)
+    c.add_argument("--stability", action="store_true", help="also the share of shapes that pass the drop test")
+    c.add_argument("--json", action="store_true")
+    c.set_defaults(run=cmd_bench_program)
+
+    c = command(sub, "dataset", "export shapes/s, sketch views/s (one render thread), clouds/s",
+                "geocode bench dataset vase")
+    c.add_argument("domain", choices=domains)
+    c.add_argument("--json", action="store_true")
+    c.set_defaults(run=cmd_bench_dataset)
+
+    c = command(sub, "train", "DGCNN samples/s, reference against fast; one-sample inference latency",
+                "geocode bench train --json")
+    c.add_argument("--json", action="store_true")
+    c.set_defaults(run=cmd_bench_train)
+
+    c = command(sub, "epoch", "one training epoch at a dataset size (default: the paper-scale vase), "
+                "on random tensors on the device", "geocode bench epoch --device cuda",
+                "geocode bench epoch --clouds 330 --sketches 330 --points 1536 --variant huang")
+    c.add_argument("--clouds", type=at_most(100000, "clouds", "ten paper-scale epochs; the time grows with it"),
+                   default=9330, help="clouds per epoch (default: the paper-scale vase's 9330)")
+    c.add_argument("--sketches", type=at_most(200000, "sketches", "ten paper-scale epochs; the time grows with it"),
+                   default=18660, help=f"sketches per epoch (at most {SKETCHES_PER_CLOUD} per cloud)")
+    c.add_argument("--device", default="auto", help="auto (a GPU where there is one), cpu or cuda")
+    c.add_argument("--variant", default="joint", help="the model variant (joint, separate, regression, huang)")
+    c.add_argument("--points", type=at_most(10000, "points", "the neighbour search grows with their square "
+                                            "(19 times the memory of 2300)"), default=2300, help="points per cloud")
+    c.add_argument("--json", action="store_true")
+    c.set_defaults(run=cmd_bench_epoch)
+
+    c = command(sub, "eval", "rebuilt shapes/s, Chamfer ms (10k against 10k points), drop-test s a shape",
+                "geocode bench eval vase")
+    c.add_argument("domain", choices=domains)
+    c.add_argument("--json", action="store_true")
+    c.set_defaults(run=cmd_bench_eval)
+
+    c = command(sub, "fit", "the fit of a run's predictions to clean clouds (as \"pc + fit\") or to sketches "
+                "(\"sketch + fit\"): Chamfer distance to the truth before and after, seconds a shape",
+                "geocode bench fit chair -n 20", "geocode bench fit vase --modality sketch --camera novel -n 10",
+                "geocode bench fit chair -n 20 paths.runs=/data/runs/mini paths.data=/data/data/mini")
+    c.add_argument("domain", choices=domains)
+    shapes_option(c, 10000, "a mean settles within a few hundred", "shapes (default 20; --modality sketch: 10)")
+    c.add_argument("--modality", choices=["points", "sketch"], default="points",
+                   help="fit to the clean clouds (points) or to the sketches")
+    c.add_argument("--camera", choices=["trained", "novel"], default="trained",
+                   help="--modality sketch: the trained cameras' sketches or the novel one's")
+    c.add_argument("--split", choices=["val", "test"], default="val", help=SPLIT_HELP + "; default val")
+    budget_option(c, f"{BUDGET} (default eval.fit_budget; --modality sketch: the domain's eval.sketch_fit_budget)")
+    c.add_argument("--json", action="store_true")
+    c.set_defaults(run=cmd_bench_fit)
+
+    c = command(sub, "turns", "reconstruct a split's shapes turned 0, 90, 180, 270 and 137 degrees: "
+                "the largest over the smallest fitted distance a shape", "geocode bench turns chair -n 10")
+    c.add_argument("domain", choices=domains)
+    shapes_option(c, 10000, "each is five reconstructions", "shapes (default 10)", default=10)
+    c.add_argument("--split", choices=["val", "test"], default="val", help=SPLIT_HELP + "; default val")
+    budget_option(c, f"{BUDGET} (default eval.reconstruct_budget)")
+    c.add_argument("--json", action="store_true")
+    c.set_defaults(run=cmd_bench_turns)
+
+    c = command(sub, "real", "reconstruct folders of real shapes (one subfolder per domain) against the "
+                "network alone, the program's defaults and the nearest training shape",
+                "geocode bench real shapes/ --up-truth up.yaml -o pages/   # shapes/chair/*.obj, shapes/vase/...")
+    c.add_argument("folder", type=Path, help="the folder of <domain>/ subfolders of meshes, scans or clouds")
+    c.add_argument("-o", "--output", type=output_folder,
+                   help="the folder of each domain's page and each file's outputs (timed with the rest)")
+    c.add_argument("--up-truth", type=Path, help="YAML {file pattern: up axis} for the baselines and the "
+                                                 "up axis agreement")
+    budget_option(c, f"{BUDGET} (default eval.reconstruct_budget)")
+    c.add_argument("--json", action="store_true")
+    c.set_defaults(run=cmd_bench_real)
+
+    c = command(sub, "span", "how near a program comes to real shapes at all: a long fit from its "
+                "defaults and their one-switch forms, no network", "geocode bench span chair chairs/ -o span/")
+    c.add_argument("domain", choices=domains)
+    c.add_argument("folder", type=Path, help="a folder of real meshes, scans or clouds of the domain")
+    c.add_argument("-o", "--output", type=output_folder, help="the folder of its page")
+    c.add_argument("--up-truth", type=Path, help="YAML {file pattern: up axis}")
+    budget_option(c, f"{BUDGET} (default 2000)")
+    c.add_argument("--json", action="store_true")
+    c.set_defaults(run=cmd_bench_span)
 
 
 # -- programs ---------------------------------------------------------------------------------
@@ -345,7 +478,7 @@ def cmd_reconstruct(args):
 
     cfg = step_config(args, f"domain={args.domain}")
     return reconstruct(cfg, args.domain, args.input, args.output, checkpoint=args.checkpoint,
-                       refine=args.refine, up=args.up, candidates=args.candidates,
+                       refine=args.budget, up=args.up, candidates=args.candidates,
                        recursive=args.recursive, workers=args.workers)
 
 
@@ -399,80 +532,85 @@ def cmd_gallery(args):
     from geocode.outputs import Outputs
 
     with Outputs() as out:
-        render_gallery(args.domain, out.reserve(args.output), n=args.n, seed=args.seed)
+        render_gallery(args.domain, out.reserve(args.output), n=args.shapes, seed=args.seed)
     return f"wrote {args.output}"
 
 
-def cmd_bench(args):
-    if args.folder is not None and args.stage != "span":   # a key=value override, not a folder
-        args.overrides = [str(args.folder), *args.overrides]
-    if args.stage == "real":
-        from geocode.bench.real import bench_real, real_table
+def cmd_bench_program(args):
+    from geocode.bench.program import bench_program
 
-        result = bench_real(args.overrides, args.domain, args.up_truth, args.budget, args.output)
-        return result if args.json else real_table(result)
-    if args.stage == "span":
-        from geocode.bench.span import bench_span
+    return bench_program(args.domain, n=args.shapes, stability=args.stability)
 
-        if args.folder is None:
-            raise UserError("bench span", "no folder of real shapes", "give: geocode bench span <domain> <folder>")
-        return bench_span(args.overrides, args.domain, args.folder, args.budget, args.up_truth, args.output)
-    if args.domain not in registry_domains():
-        raise UserError(f"bench {args.stage} {args.domain}", "unknown domain",
-                        f"give one of {', '.join(registry_domains())}")
-    if args.stage == "turns":
-        from geocode.bench.real import bench_turns
 
-        return bench_turns(args.overrides, args.domain, n=args.n or 10, budget=args.budget)
-    if args.stage == "program":
-        from geocode.bench.program import bench_program
+def cmd_bench_dataset(args):
+    from geocode.bench.dataset import bench_dataset
 
-        return bench_program(args.domain, n=args.n or 200, stability=args.stability)
-    if args.stage == "dataset":
-        from geocode.bench.dataset import bench_dataset
+    return bench_dataset(args.domain)
 
-        return bench_dataset(args.domain)
-    if args.stage == "train":
-        from geocode.bench.train import bench_train
 
-        return bench_train()
-    if args.stage == "epoch":
-        from geocode.bench.train import bench_epoch
+def cmd_bench_train(args):
+    from geocode.bench.train import bench_train
 
-        if args.sketches > SKETCHES_PER_CLOUD * args.clouds:
-            raise UserError(f"--sketches {args.sketches}", f"more than {SKETCHES_PER_CLOUD} per cloud "
-                            f"(--clouds {args.clouds}): a step would hold them all on the device",
-                            f"give at most {SKETCHES_PER_CLOUD * args.clouds}")
-        return bench_epoch(args.clouds, args.sketches, device=args.device, n_points=args.points, variant=args.variant)
-    if args.stage == "fit":
-        from geocode.bench.fit import bench_fit
-        from geocode.config import compose
+    return bench_train()
 
-        cfg = compose([f"domain={args.domain}", *args.overrides])
-        if args.modality == "sketch":
-            from geocode.bench.sketch_fit import bench_sketch_fit
 
-            kwargs = {} if args.budget is None else {"budget": args.budget}
-            return bench_sketch_fit(cfg, args.domain, n=args.n or 10, camera=args.camera, **kwargs)
-        return bench_fit(cfg, args.domain, n=args.n or 20)
+def cmd_bench_epoch(args):
+    from geocode.bench.train import bench_epoch
+
+    if args.sketches > SKETCHES_PER_CLOUD * args.clouds:
+        raise UserError(f"--sketches {args.sketches}", f"more than {SKETCHES_PER_CLOUD} per cloud "
+                        f"(--clouds {args.clouds}): a step would hold them all on the device",
+                        f"give at most {SKETCHES_PER_CLOUD * args.clouds}")
+    return bench_epoch(args.clouds, args.sketches, device=args.device, n_points=args.points, variant=args.variant)
+
+
+def cmd_bench_eval(args):
     from geocode.bench.evaluate import bench_eval
 
     return bench_eval(args.domain)
 
 
-def registry_domains() -> list[str]:
-    from geocode.config import registry
+def cmd_bench_fit(args):
+    from geocode.config import compose
 
-    return registry()
+    cfg = compose([f"domain={args.domain}", *args.overrides])
+    if args.modality == "sketch":
+        from geocode.bench.sketch_fit import bench_sketch_fit
+
+        return bench_sketch_fit(cfg, args.domain, n=args.shapes or 10, camera=args.camera, split=args.split,
+                                budget=args.budget)
+    from geocode.bench.fit import bench_fit
+
+    return bench_fit(cfg, args.domain, n=args.shapes or 20, split=args.split, budget=args.budget)
+
+
+def cmd_bench_turns(args):
+    from geocode.bench.real import bench_turns
+
+    return bench_turns(args.overrides, args.domain, n=args.shapes, budget=args.budget, split=args.split)
+
+
+def cmd_bench_real(args):
+    from geocode.bench.real import bench_real, real_table
+
+    result = bench_real(args.overrides, args.folder, args.up_truth, args.budget, args.output)
+    return result if args.json else real_table(result)
+
+
+def cmd_bench_span(args):
+    from geocode.bench.span import bench_span
+
+    return bench_span(args.overrides, args.domain, args.folder, args.budget, args.up_truth, args.output)
 
 
 def cmd_timings(args):
     from geocode.config import group_options, registry
     from geocode.timing import run_summary, run_times
 
+    cfg = step_config(args, *([f"profile={args.profile}"] if args.profile else []))
     if not args.metadata.is_dir():
         raise UserError(args.metadata, "no Snakemake records here", "run it in the folder the workflow ran from")
-    jobs = run_times(args.metadata, args.profile, list(registry()), group_options("model"))
+    jobs = run_times(args.metadata, cfg.profile_name, list(registry()), group_options("model"))
     if not args.json:
         return run_summary(jobs)
     minutes = jobs.pivot_table(index="rule", columns="domain", values="seconds", aggfunc="sum") / 60
@@ -532,7 +670,7 @@ def cmd_train(args):
     from geocode.steps.train import train
 
     cfg = step_config(args)
-    return train(cfg, out_dir=args.out)
+    return train(cfg, out_dir=args.output)
 
 
 def cmd_simplify(args):
@@ -578,8 +716,10 @@ def cmd_report(args):
 # Commands that start Blender: it is imported first, with stop signals held until it is up.
 BLENDER = {cmd_programs, cmd_program_show, cmd_program_build, cmd_shape, cmd_gallery, cmd_export,
            cmd_sketch, cmd_rebuild, cmd_reconstruct, cmd_mix, cmd_interpolate, cmd_addon_build}
-STEPS = {cmd_reconstruct, cmd_report, cmd_sample, cmd_export, cmd_sketch, cmd_points, cmd_train, cmd_config, cmd_simplify,
-         cmd_predict, cmd_rebuild, cmd_metrics, cmd_tables}
+# Commands that take Hydra overrides (key=value) after their options.
+OVERRIDES = {cmd_reconstruct, cmd_report, cmd_sample, cmd_export, cmd_sketch, cmd_points, cmd_train, cmd_config,
+             cmd_simplify, cmd_predict, cmd_rebuild, cmd_metrics, cmd_tables, cmd_timings, cmd_bench_fit,
+             cmd_bench_turns, cmd_bench_real, cmd_bench_span}
 
 
 if __name__ == "__main__":

@@ -239,7 +239,7 @@ class Eval(Group):
     ablations: each(Name) = key("decoder ablations trained for the ablation domains")
     ablation_domains: each(Name) = key("domains whose ablations are trained (the paper: the chair)")
     fit_budget: whole(0) = key("program evaluations of each test shape's fit (eval.fit)")
-    reconstruct_budget: whole(0) = key("program evaluations of the fit of `geocode reconstruct` (--refine)")
+    reconstruct_budget: whole(0) = key("program evaluations of the fit of `geocode reconstruct` (--budget)")
     sketch_fit_budget: whole(0) = key("program evaluations of a drawing's fit: `geocode reconstruct` on a "
                                       "drawing, `bench fit --modality sketch`, eval.fit's sketch conditions")
     sketch_fit_domain_budget: Annotated[dict[Name, whole(0)] | None, Expect("null or a mapping {<domain>: a whole number >= 0}")] = key(

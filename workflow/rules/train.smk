@@ -19,4 +19,4 @@ rule train:
         mem_mb=8000,
         gpu=GPUS,
     shell:
-        "geocode train --out {params.out} {params.args} model={wildcards.variant} > {log} 2>&1"
+        "geocode train -o {params.out} {params.args} model={wildcards.variant} > {log} 2>&1"

@@ -58,8 +58,8 @@ def bench_real(overrides: list[str], folder: Path, up_truth: Path | None = None,
                budget: int | None = None, out: Path | None = None) -> dict:
     """Per domain subfolder: the medians of the four distances, their ratios to the nearest
     training shape, seconds per shape and how often the up axis found is the true one."""
-    from geocode.reconstruct import page
     from geocode.config import compose, registry
+    from geocode.reconstruct import page
     from geocode.reconstruct.run import PAGE_NOTE, SUFFIXES, Reconstructor
 
     folder, table = Path(folder), read_up_truth(up_truth)
@@ -145,11 +145,13 @@ def real_table(result: dict) -> str:
 TURNS_DEGREES = (0.0, 90.0, 180.0, 270.0, 137.0)   # the quarter-turns and one arbitrary angle
 
 
-def bench_turns(overrides: list[str], domain: str, n: int = 10, budget: int | None = None) -> dict:
+def bench_turns(overrides: list[str], domain: str, n: int = 10, budget: int | None = None,
+                split: str = "val") -> dict:
     """`geocode reconstruct` (up axis and front found, fit of `budget` evaluations) on each of
-    the first `n` test shapes of the run turned by TURNS_DEGREES about the up axis: per shape
-    the fitted distances (plain Chamfer, in the input's pose) and the largest over the
-    smallest; a tool that finds the pose gives every turn the same program."""
+    the first `n` shapes of a split of the run (the validation split unless told otherwise)
+    turned by TURNS_DEGREES about the up axis: per shape the fitted distances (plain Chamfer,
+    in the input's pose) and the largest over the smallest; a tool that finds the pose gives
+    every turn the same program."""
     import tempfile
 
     import numpy as np
@@ -158,16 +160,16 @@ def bench_turns(overrides: list[str], domain: str, n: int = 10, budget: int | No
     from geocode import paths
     from geocode.config import compose
     from geocode.meshio import read_obj
-    from geocode.steps.evaluate import test_ids
     from geocode.reconstruct.run import Reconstructor
+    from geocode.steps.evaluate import split_ids
 
     cfg = compose([*overrides, f"domain={domain}"])
     run = Reconstructor(cfg, domain, refine=budget)
-    test = paths.split_dir(cfg, domain, "test")
+    shapes = paths.shapes_dir(paths.split_dir(cfg, domain, split))
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
-        for shape_id in test_ids(cfg, domain)[:n]:
-            mesh = read_obj(paths.shape_file(paths.shapes_dir(test), shape_id))
+        for shape_id in split_ids(cfg, domain, split)[:n]:
+            mesh = read_obj(paths.shape_file(shapes, shape_id))
             distances = []
             for degrees in TURNS_DEGREES:
                 turned = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False)
@@ -178,7 +180,7 @@ def bench_turns(overrides: list[str], domain: str, n: int = 10, budget: int | No
             rows.append({"shape": shape_id, "distances": [round(d, 6) for d in distances],
                          "ratio": round(max(distances) / min(distances), 3)})
     ratios = [r["ratio"] for r in rows]
-    return {"domain": domain, "shapes": len(rows), "turns": list(TURNS_DEGREES),
+    return {"domain": domain, "split": split, "shapes": len(rows), "turns": list(TURNS_DEGREES),
             "median_ratio": round(statistics.median(ratios), 3), "worst_ratio": max(ratios),
             "within_1.2x": f"{sum(r <= 1.2 for r in ratios)}/{len(rows)}",
             "median_distance": round(statistics.median(d for r in rows for d in r["distances"]), 6),

@@ -109,9 +109,9 @@ def judged_by_short_fits(program, recipe, starts: list[Start], target: np.ndarra
 
 def bench_span(overrides: list[str], domain: str, folder: Path, budget: int | None = None,
                up_truth: Path | None = None, out: Path | None = None) -> dict:
-    from geocode.reconstruct import page
     from geocode.bench.real import read_up_truth, true_up
     from geocode.config import compose
+    from geocode.reconstruct import page
     from geocode.reconstruct.inputs import read_geometry
     from geocode.reconstruct.run import (
         SUFFIXES,

@@ -45,7 +45,13 @@ OPTIONS = "fit_options"  # predictions' column: JSON of each discrete parameter'
 def test_ids(cfg: DictConfig, domain: str) -> list[str]:
     """The evaluated test shapes: at most eval.max_test_shapes, evenly spread over the split
     (so that every forced parameter class shows up), the same for every model variant."""
-    recipes = load_recipes(paths.recipes_file(paths.split_dir(cfg, domain, "test")))
+    return split_ids(cfg, domain, "test")
+
+
+def split_ids(cfg: DictConfig, domain: str, split: str) -> list[str]:
+    """A split's shapes chosen as `test_ids` chooses the test split's (the benchmarks measure
+    the validation split's the same way)."""
+    recipes = load_recipes(paths.recipes_file(paths.split_dir(cfg, domain, split)))
     return spread_subset(recipes, cfg.eval.max_test_shapes)["id"].tolist()
 
 
@@ -81,15 +87,22 @@ def simplify_step(cfg: DictConfig, domain: str, factor: int) -> str:
 
 def point_input(cfg: DictConfig, domain: str, cond: dict, shape_id: str) -> np.ndarray:
     """The evaluation cloud of one shape under one condition, float32 (N, 3)."""
-    from geocode.points import add_noise, eval_cloud, load_clouds, sparse_cloud
+    from geocode.points import add_noise, sparse_cloud
 
     rng = generator(cfg.seed, "eval", cond["condition"], shape_id)
     if cond["sparse"]:
         mesh = read_obj(paths.shape_file(paths.shapes_dir(paths.split_dir(cfg, domain, "test")), shape_id), REDO_EXPORT)
         return sparse_cloud(mesh, cond["sparse"], rng)
-    clouds = load_clouds(paths.cloud_file(paths.split_dir(cfg, domain, paths.source_split(cond["source"])), shape_id))
-    cloud = eval_cloud(clouds, cfg.data.points.train_random, cfg.seed, shape_id)
+    cloud = clean_cloud(cfg, domain, paths.source_split(cond["source"]), shape_id)
     return add_noise(cloud, cond["noise"], rng) if cond["noise"] else cloud
+
+
+def clean_cloud(cfg: DictConfig, domain: str, split: str, shape_id: str) -> np.ndarray:
+    """The evaluation cloud of one shape of a split, without noise, float32 (N, 3)."""
+    from geocode.points import eval_cloud, load_clouds
+
+    clouds = load_clouds(paths.cloud_file(paths.split_dir(cfg, domain, split), shape_id))
+    return eval_cloud(clouds, cfg.data.points.train_random, cfg.seed, shape_id)
 
 
 def sketch_path(cfg: DictConfig, domain: str, cond: dict, shape_id: str) -> Path:

@@ -260,6 +260,6 @@ def check_compatible(path: Path, model: GeoCodeModule) -> None:
     if bad or ckpt["hyper_parameters"].get("heads") != model.hparams.heads:
         what = bad[0] if bad else "heads"
         raise CheckpointError(path, f"checkpoint of a different model ({what})",
-                              "delete it or train into another --out")
+                              "delete it or train into another folder (-o)")
 
 
