@@ -1,5 +1,11 @@
 """geocode.reconstruct.inputs on files made here: every format, clouds with headers, scenes, size bounds,
-and the one-line refusals."""
+and the one-line refusals; and the output names of `geocode.reconstruct.plan`."""
+
+import io
+import json
+import struct
+import zipfile
+import zlib
 
 import numpy as np
 import pytest
@@ -8,6 +14,7 @@ import trimesh
 from geocode.errors import UserError
 from geocode.reconstruct import inputs
 from geocode.reconstruct.inputs import keep_main_object, read_geometry, surface_points
+from geocode.reconstruct.plan import RECORD, output_suffixes, plan_run
 
 
 def stool():
@@ -171,7 +178,6 @@ def test_what_cannot_be_used_is_one_line_naming_the_file(tmp_path, name, write, 
 
 @pytest.mark.blender
 def test_a_program_shape_in_every_format(tmp_path):
-    pytest.importorskip("bpy")
     from geocode.program import Program
 
     mesh = Program.load("table").evaluate({})
@@ -182,3 +188,124 @@ def test_a_program_shape_in_every_format(tmp_path):
         assert got.mesh.area == pytest.approx(mesh.area, rel=1e-4), suffix
     np.savetxt(tmp_path / "table.xyz", surface_points(got, 3000, np.random.default_rng(0)), header="x y z")
     assert read_geometry(tmp_path / "table.xyz").points.shape == (3000, 3)
+
+
+# -- bounds, before anything is decoded --------------------------------------------------------
+
+def png_header(path, width, height):
+    """A PNG whose header says width x height: a few hundred bytes, never decoded whole."""
+    def chunk(kind, data):
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+    path.write_bytes(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 0, 0, 0, 0))
+                     + chunk(b"IDAT", zlib.compress(b"\0" * 1000)) + chunk(b"IEND", b""))
+    return path
+
+
+def test_a_huge_drawing_is_refused_from_its_header(tmp_path, monkeypatch):
+    from PIL import ImageFile
+
+    def decoded(*_):
+        raise AssertionError("the pixels were decoded")
+    path = png_header(tmp_path / "drawing.png", 30000, 30000)
+    with monkeypatch.context() as patch, pytest.raises(UserError) as info:
+        patch.setattr(ImageFile.ImageFile, "load", decoded)
+        inputs.open_image(path)
+    line = str(info.value)
+    assert line.startswith(f"{path}: 30000 x 30000 pixels is over the limit of 36 million; ")
+    assert f"at most {inputs.MAX_SIDE} x {inputs.MAX_SIDE} pixels" in line and "\n" not in line
+    with inputs.open_image(png_header(tmp_path / "fine.png", 6000, 6000)) as image:
+        assert image.size == (6000, 6000)
+    (tmp_path / "words.png").write_text("not an image")
+    with pytest.raises(UserError, match="words.png: not a readable PNG or JPEG image"):
+        inputs.open_image(tmp_path / "words.png")
+
+
+def test_an_npz_array_is_measured_from_its_header_before_it_is_unpacked(tmp_path):
+    """A 2 kB .npz whose array says 24 GB: refused without allocating it."""
+    path = tmp_path / "bomb.npz"
+    header = io.BytesIO()
+    np.lib.format.write_array_header_1_0(header, {"descr": "<f8", "fortran_order": False, "shape": (10**9, 3)})
+    with zipfile.ZipFile(path, "w", zipfile.ZIP_DEFLATED) as archive:
+        archive.writestr("points.npy", header.getvalue() + b"\0" * 1000)
+    with pytest.raises(UserError, match=r"bomb.npz: its array 'points' \(1000000000, 3\) is 22.4 GiB unpacked"):
+        read_geometry(path)
+
+
+def test_the_files_a_gltf_refers_to_count_towards_the_limit(tmp_path, monkeypatch):
+    for name, data in one(stool()).export(file_type="gltf").items():
+        (tmp_path / name).write_bytes(data)
+    path = tmp_path / "model.gltf"
+    assert read_geometry(path).kind == "mesh"
+    monkeypatch.setattr(inputs, "MAX_BYTES", path.stat().st_size + 100)   # the .gltf fits, its buffers not
+    with pytest.raises(UserError, match=r"model.gltf: with the files it refers to \(gltf_buffer_\d.bin the last\)"):
+        read_geometry(path)
+
+
+def test_materials_and_textures_are_never_read(tmp_path, monkeypatch):
+    """An OBJ's material and texture files are not even opened: its mesh alone is read."""
+    box = trimesh.creation.box()
+    (tmp_path / "box.mtl").write_text("newmtl skin\nmap_Kd skin.png\n")
+    (tmp_path / "box.obj").write_text(
+        "mtllib box.mtl\nusemtl skin\n" + "".join(f"v {x} {y} {z}\nvt 0 0\n" for x, y, z in box.vertices)
+        + "".join(f"f {a + 1}/{a + 1} {b + 1}/{b + 1} {c + 1}/{c + 1}\n" for a, b, c in box.faces))
+    (tmp_path / "skin.png").write_bytes(b"\0" * 100_000)
+    asked, get = [], inputs.BoundedFiles.get
+    monkeypatch.setattr(inputs.BoundedFiles, "get", lambda self, name: asked.append(name) or get(self, name))
+    got = read_geometry(tmp_path / "box.obj")
+    assert got.mesh.area == pytest.approx(6.0) and asked == []
+
+
+# -- output names -----------------------------------------------------------------------------------
+
+def touch(folder, *names):
+    for name in names:
+        (folder / name).parent.mkdir(parents=True, exist_ok=True)
+        (folder / name).write_text(name)
+
+
+def stems(plan):
+    return {job.name: job.stem.relative_to(plan.out_dir).as_posix() for job in plan.jobs}
+
+
+def test_each_input_gets_its_own_output_names(tmp_path):
+    """Stems that collide keep their suffix; names made so collide again keep theirs too; a
+    suffix-less output of one input that is another input (x.in-place.obj) counts."""
+    touch(tmp_path / "in", "scan.obj", "scan.ply", "a.png", "a.jpg", "x/a.obj", "y/a.obj", "plain.stl",
+          "scan-obj.stl", "v.obj", "v.in-place.obj")
+    plan = plan_run(tmp_path / "in", tmp_path / "out", recursive=True)
+    assert stems(plan) == {"scan.obj": "scan-obj", "scan.ply": "scan-ply", "a.png": "a-png", "a.jpg": "a-jpg",
+                           "x/a.obj": "x/a", "y/a.obj": "y/a", "plain.stl": "plain", "scan-obj.stl": "scan-obj-stl",
+                           "v.obj": "v-obj", "v.in-place.obj": "v.in-place-obj"}
+    outputs = [f"{job.stem}{s}" for job in plan.jobs for s in output_suffixes(job.path)]
+    assert len(set(outputs)) == len(outputs)
+    assert stems(plan_run(tmp_path / "in", tmp_path / "out", recursive=True)) == stems(plan)
+
+
+def test_outputs_never_replace_an_input_or_a_file_reconstruct_did_not_write(tmp_path):
+    folder = tmp_path / "scans"
+    touch(folder, "scan.obj", "chair.obj", "chair.blend")
+    assert stems(plan_run(folder / "scan.obj", folder, recursive=False)) == {"scan.obj": "scan-obj"}
+    assert stems(plan_run(folder / "chair.obj", folder, recursive=False)) == {"chair.obj": "chair-obj"}
+    assert stems(plan_run(folder / "chair.obj", tmp_path / "out", recursive=False)) == {"chair.obj": "chair"}
+    touch(folder, "index.html")
+    with pytest.raises(UserError, match="index.html: would be replaced by the page, but reconstruct did not write it"):
+        plan_run(folder / "scan.obj", folder, recursive=False)
+    touch(tmp_path / "clouds", "summary.csv")
+    with pytest.raises(UserError, match="summary.csv: would be replaced by the page"):
+        plan_run(tmp_path / "clouds", tmp_path / "clouds", recursive=False)
+
+
+def test_a_folder_reconstructed_into_itself_keeps_its_names_and_inputs(tmp_path):
+    """The record makes a rerun replace the run's own files, never take them for inputs, and
+    give the same names."""
+    folder = tmp_path / "scans"
+    touch(folder, "scan.obj", "scan.ply", "vase.stl")
+    first = plan_run(folder, folder, recursive=True)
+    first.write_record()
+    touch(folder, *first.files)                      # what the run wrote
+    again = plan_run(folder, folder, recursive=True)
+    assert stems(again) == stems(first) == {"scan.obj": "scan-obj", "scan.ply": "scan-ply", "vase.stl": "vase"}
+    assert json.loads(again.record_text())["files"] == sorted(first.files)
+    (folder / RECORD).write_text("[1, 2]")
+    with pytest.raises(UserError, match="is not a record of geocode reconstruct"):
+        plan_run(folder, folder, recursive=True)

@@ -20,6 +20,7 @@ from geocode.reconstruct.page import (
     Entry,
     cloud_mesh,
     median,
+    picture_path,
     picture_stem,
     render_entry,
     single_sided,
@@ -170,14 +171,16 @@ def test_summary_csv_columns_and_values(tmp_path):
     assert rows[1]["pose_offset"] == "(0, 0.1, 0)" and rows[1]["pose_scale"] == ""
 
 
-def test_rerun_replaces_files_and_removes_stale_pictures(tmp_path):
+def test_rerun_replaces_files_and_removes_stale_pictures_and_no_other_file(tmp_path):
     write_page(entries(), tmp_path, "first", render=FakeRender())
-    (tmp_path / "page" / ".x.png.abc.tmp").write_text("left by a killed run")
+    (tmp_path / "page" / ".x.ply-0123abcd-result.png.abc_12.tmp").write_text("left by a killed run")
+    (tmp_path / "page" / "sketch.png").write_text("the user's")
     write_page(entries()[1:2], tmp_path, "second", render=FakeRender())
     assert "<h1>second</h1>" in (tmp_path / "index.html").read_text()
     assert len(csv_rows(tmp_path / "summary.csv")) == 1
-    assert len(list((tmp_path / "page").iterdir())) == 2
-    assert not list(tmp_path.glob(".*.tmp"))
+    shown = [Path(picture_path("scans/b <1>.xyz", role)).name for role in ("input", "result")]
+    assert sorted(p.name for p in (tmp_path / "page").iterdir()) == sorted([*shown, "sketch.png"])
+    assert (tmp_path / "page" / "sketch.png").read_text() == "the user's"
 
 
 def test_failed_rendering_leaves_the_previous_page_whole(tmp_path):

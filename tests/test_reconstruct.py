@@ -1,9 +1,14 @@
 """`geocode reconstruct` and the fit, on small files made here; the model is an untrained
 network of the real architecture (its prediction is arbitrary, the plumbing is real)."""
 
+import csv
+import io
 import json
+import os
+import signal
 import subprocess
 import sys
+import time
 
 import numpy as np
 import pytest
@@ -12,15 +17,15 @@ import yaml
 from PIL import Image, ImageDraw
 from scipy import ndimage
 
-pytest.importorskip("bpy")
-
-from geocode.cli import main  # noqa: E402
-from geocode.meshio import normalise_unit_sphere  # noqa: E402
-from geocode.points import sample_surface  # noqa: E402
-from geocode.program import Program  # noqa: E402
-from geocode.reconstruct.fit import CloudDistance, Start, fit, shape_points  # noqa: E402
-from geocode.reconstruct.page import SIZE  # noqa: E402
-from geocode.reconstruct.run import SKETCH_EXTENT, sketch_from_image  # noqa: E402
+from geocode.cli import main
+from geocode.meshio import normalise_unit_sphere
+from geocode.points import sample_surface
+from geocode.program import Program
+from geocode.reconstruct.fit import CloudDistance, Start, fit, shape_points
+from geocode.reconstruct.linedraw import TRUNCATE
+from geocode.reconstruct.page import SIZE
+from geocode.reconstruct.plan import RECORD, SHAPE_OUTPUTS
+from geocode.reconstruct.run import SKETCH_EXTENT, sketch_from_image
 
 pytestmark = pytest.mark.blender
 SHAPE = {"body_height": 1.2, "handle_count": 2, "belly_width": 0.6}
@@ -86,7 +91,7 @@ def test_every_input_kind_gives_values_mesh_preview_and_blend(files, tmp_path, c
     drawing = name.endswith(".jpg")
     per_input = (".yaml", ".obj", ".png", ".blend") + (() if drawing else (".in-place.obj",))
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted(
-        [f"{stem}{s}" for s in per_input] + ["index.html", "summary.csv", "page"])
+        [f"{stem}{s}" for s in per_input] + ["index.html", "summary.csv", "page", RECORD])
     values = yaml.safe_load((tmp_path / f"{stem}.yaml").read_text())
     assert set(values) == {p.name for p in Program.load("vase").parameters}
     if not drawing:
@@ -104,7 +109,8 @@ def test_a_drawing_is_fitted_with_its_camera(files, tmp_path, capsys):
     summary = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     assert summary["evaluations"] == 6
     assert set(summary["camera"]) == {"azimuth", "elevation", "roll", "scale", "offset"}
-    assert 0 < summary["drawing_after"] < 40 and 0 < summary["drawing_before"] < 40
+    # distances truncated at TRUNCATE px per stroke pixel; that far only when a drawing is blank
+    assert 0 < summary["drawing_after"] < TRUNCATE and 0 < summary["drawing_before"] < TRUNCATE
     html = (out / "index.html").read_text()
     assert "our line drawing of the result" in html and " px" in html
     with Image.open(out / "drawing.png") as preview:
@@ -145,6 +151,112 @@ def test_a_folder_is_reconstructed_with_a_page(files, tmp_path, capsys):
     html = (out / "index.html").read_text()
     assert "sub/vase.obj" in html and "broken.xyz" in html
     assert len((out / "summary.csv").read_text().strip().splitlines()) == 4
+
+
+def listing(folder):
+    return sorted(p.relative_to(folder).as_posix() for p in folder.rglob("*") if p.is_file())
+
+
+def rows_without_seconds(summary_csv):
+    return [{k: v for k, v in row.items() if k != "seconds"}
+            for row in csv.DictReader(io.StringIO(summary_csv.read_text()))]
+
+
+def test_one_file_into_its_own_folder_replaces_neither_it_nor_the_users_files(files, tmp_path, capsys):
+    folder = tmp_path / "scans"
+    folder.mkdir()
+    scan = folder / "chair.obj"
+    scan.write_bytes((files["root"] / "vase.obj").read_bytes())
+    (folder / "chair.blend").write_text("the user's own")
+    mine = {p.name: p.read_bytes() for p in folder.iterdir()}
+    for _ in range(2):   # a rerun: the same names, its own files replaced
+        assert main(["reconstruct", "vase", str(scan), "-o", str(folder), "--refine", "0",
+                     "--checkpoint", str(files["ckpt"])]) == 0
+        assert {name: (folder / name).read_bytes() for name in mine} == mine
+        assert {p.name for p in folder.iterdir()} == {*mine, *(f"chair-obj{s}" for s in SHAPE_OUTPUTS),
+                                                      "index.html", "summary.csv", "page", RECORD}
+
+
+def test_a_folder_into_itself_gives_each_input_its_names_and_one_process_s_results(files, tmp_path):
+    """scan.obj and scan.ply, a.png and a.jpg, reconstructed into their own folder by one process
+    and then by two: the inputs untouched, each input its own files (the suffix kept where
+    stems collide), the same names, no output taken for an input, the same results."""
+    folder = tmp_path / "scans"
+    folder.mkdir()
+    for source, name in (("vase.obj", "scan.obj"), ("vase.ply", "scan.ply"), ("drawing.jpg", "a.jpg")):
+        (folder / name).write_bytes((files["root"] / source).read_bytes())
+    Image.open(files["root"] / "drawing.jpg").save(folder / "a.png")
+    mine = {p.name: p.read_bytes() for p in folder.iterdir()}
+    runs = []
+    for workers in ("1", "2"):
+        assert main(["reconstruct", "vase", str(folder), "-o", str(folder), "--refine", "4", "--workers", workers,
+                     "--checkpoint", str(files["ckpt"])]) == 0
+        assert {name: (folder / name).read_bytes() for name in mine} == mine
+        values = {p.name: p.read_text() for p in folder.glob("*.yaml")}
+        runs.append((listing(folder), rows_without_seconds(folder / "summary.csv"), values))
+    assert runs[0] == runs[1]
+    names, rows, values = runs[0]
+    assert sorted(values) == ["a-jpg.yaml", "a-png.yaml", "scan-obj.yaml", "scan-ply.yaml"]
+    assert [row["name"] for row in rows] == ["a.jpg", "a.png", "scan.obj", "scan.ply"]
+    assert all(not row["error"] for row in rows)
+    assert "scan-obj.in-place.obj" in names and "a-png.in-place.obj" not in names
+
+
+def test_a_huge_drawing_is_one_line(files, tmp_path, capsys):
+    from test_inputs import png_header
+
+    out = tmp_path / "out"
+    path = png_header(tmp_path / "drawing.png", 30000, 30000)
+    assert main(["reconstruct", "vase", str(path), "-o", str(out), "--checkpoint", str(files["ckpt"])]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == (f"geocode: {path}: 30000 x 30000 pixels is over the limit of 36 million; give a drawing "
+                   "of at most 6000 x 6000 pixels (scale it down: it is brought to 224 x 224)")
+    assert not out.exists()
+
+
+def test_a_set_up_error_in_the_workers_is_one_line_before_any_file(files, tmp_path, capsys):
+    folder = tmp_path / "in"
+    folder.mkdir()
+    for name in ("a.obj", "b.obj"):
+        (folder / name).write_bytes((files["root"] / "vase.obj").read_bytes())
+    out = tmp_path / "out"
+    assert main(["reconstruct", "vase", str(folder), "-o", str(out), "--workers", "2",
+                 "--checkpoint", str(tmp_path / "none.ckpt")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "none.ckpt: no trained vase model" in err, err
+    assert not out.exists()
+
+
+RUN = "import sys; from geocode.cli import main; sys.exit(main(sys.argv[1:]))"
+
+
+def test_a_stop_signal_ends_the_workers_and_leaves_no_half_written_file(files, tmp_path):
+    """SIGTERM to the command (as Snakemake or SLURM stop a job) while a worker writes a file's
+    outputs: every worker ends, their temporary files removed, exit 143 with one line."""
+    folder = tmp_path / "in"
+    folder.mkdir()
+    for name in ("a.obj", "b.obj", "c.obj"):
+        (folder / name).write_bytes((files["root"] / "vase.obj").read_bytes())
+    out = tmp_path / "out"
+    command = subprocess.Popen([sys.executable, "-c", RUN, "reconstruct", "vase", str(folder), "-o", str(out),
+                                "--workers", "2", "--refine", "20", "--checkpoint", str(files["ckpt"])],
+                               stderr=subprocess.PIPE, text=True, start_new_session=True)
+    deadline = time.monotonic() + 600
+    while not list(out.rglob("*.tmp")) and command.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.02)
+    command.send_signal(signal.SIGTERM)
+    _, err = command.communicate(timeout=120)
+    assert command.returncode == 143, err
+    assert err.strip().splitlines()[-1] == "geocode: stopped by SIGTERM; rerun the same command to go on"
+    assert not list(out.rglob("*.tmp"))
+    for _ in range(100):            # the workers (and Python's resource tracker) have ended
+        try:
+            os.killpg(command.pid, 0)
+        except ProcessLookupError:
+            break
+        time.sleep(0.1)
+    else:
+        pytest.fail("processes of the stopped command are still running")
 
 
 def test_a_y_up_file_comes_to_the_same_frame_as_a_z_up_one(files):

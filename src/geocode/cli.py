@@ -217,7 +217,9 @@ def parser() -> argparse.ArgumentParser:
     c.add_argument("input", type=Path, help="a file or a folder of them: mesh (.obj .ply .stl .off .glb "
                                             ".gltf), cloud (.xyz .txt .pts .csv .npy .npz, .ply) or drawing (.png .jpg)")
     c.add_argument("-o", "--output", required=True, type=output_folder,
-                   help="folder for <input>.yaml|obj|in-place.obj|png|blend, index.html and summary.csv")
+                   help="folder for <input>.yaml|obj|in-place.obj|png|blend, index.html and summary.csv; an "
+                        "input keeps its suffix in its names (scan.obj -> scan-obj.*) where they would be another "
+                        "input's or replace a file reconstruct did not write; a rerun replaces only its own files")
     c.add_argument("--recursive", action="store_true", help="a folder's subfolders too")
     c.add_argument("--checkpoint", type=Path, help="default: the domain's joint model of the run (paths.runs)")
     renamed(c, "--refine", budget_option(c, f"{BUDGET} (default eval.reconstruct_budget; a drawing's: "
@@ -226,7 +228,8 @@ def parser() -> argparse.ArgumentParser:
     c.add_argument("--candidates", type=at_most(8, "answers", "more are rarely distinct", low=1), default=1,
                    help="write the K best distinct fitted programs (ranked on the page)")
     c.add_argument("-j", "--workers", metavar="N", type=at_most(64, "processes", "one per core is enough", low=1),
-                   help="processes that evaluate the fit's candidates, this one included (default: one per core, at most 8)")
+                   help="processes (default: one per core, at most 8): a file's fit shares its candidates "
+                        "between them; a folder's files are spread over them, each reconstructing whole files")
     c.add_argument("--json", action="store_true")
     c.set_defaults(run=cmd_reconstruct)
 

@@ -60,7 +60,8 @@ def bench_real(overrides: list[str], folder: Path, up_truth: Path | None = None,
     training shape, seconds per shape and how often the up axis found is the true one."""
     from geocode.config import compose, registry
     from geocode.reconstruct import page
-    from geocode.reconstruct.run import PAGE_NOTE, SUFFIXES, Reconstructor
+    from geocode.reconstruct.inputs import SUFFIXES
+    from geocode.reconstruct.run import PAGE_NOTE, Reconstructor
 
     folder, table = Path(folder), read_up_truth(up_truth)
     domains = [d for d in registry() if (folder / d).is_dir()]

@@ -112,9 +112,8 @@ def bench_span(overrides: list[str], domain: str, folder: Path, budget: int | No
     from geocode.bench.real import read_up_truth, true_up
     from geocode.config import compose
     from geocode.reconstruct import page
-    from geocode.reconstruct.inputs import read_geometry
+    from geocode.reconstruct.inputs import SUFFIXES, read_geometry
     from geocode.reconstruct.run import (
-        SUFFIXES,
         Answer,
         Reconstruction,
         Reconstructor,

@@ -1,4 +1,5 @@
-"""Reading a user's shape file, whatever tool made it, into one mesh or one point cloud.
+"""Reading a user's shape file, whatever tool made it, into one mesh or one point cloud; opening a
+drawing.
 
 `read_geometry(path)` gives a `Geometry`: a triangle mesh (every format trimesh reads without
 extra packages: .obj .ply .stl .off .glb .gltf) or a cloud (.xyz .txt .pts .csv .npy .npz and a
@@ -13,22 +14,27 @@ object into many pieces, and those stay together; a piece far from the rest (a s
 a stray prop) or a ground plane under everything is dropped when what remains is clearly the
 object (`MAIN_SHARE` of the surface area).
 
-Size: files above `MAX_BYTES` are refused (trimesh reads a file whole, about 3-5x its size in
-memory). Meshes are kept up to `MAX_FACES`; beyond, their surface is sampled to `LARGE_POINTS`
-points and the mesh let go. Sampling (`points.surface_samples`) holds one chunk of faces at a
-time, so its temporary memory stays under about 0.3 GB however large the mesh. Clouds above `MAX_POINTS` are
-subsampled (seeded, reproducible).
+Size, checked before anything is decoded: files above `MAX_BYTES` are refused (trimesh reads a
+file whole, about 3-5x its size in memory), the files a mesh refers to (a glTF's buffers)
+counted in, its materials and textures never read; a .npz's array, from its header, above
+`MAX_BYTES` unpacked too. Meshes are kept up to `MAX_FACES`; beyond, their surface is sampled to
+`LARGE_POINTS` points and the mesh let go. Sampling (`points.surface_samples`) holds one chunk of
+faces at a time, so its temporary memory stays under about 0.3 GB however large the mesh. Clouds
+above `MAX_POINTS` are subsampled (seeded, reproducible). A drawing (`open_image`) is refused
+above `MAX_PIXELS`, from its header.
 """
 
 from __future__ import annotations
 
 import io
+import math
 import re
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import trimesh
+from PIL import Image
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import connected_components
 
@@ -39,11 +45,16 @@ from geocode.seeds import generator
 MESH_SUFFIXES = tuple(s for s in (".obj", ".ply", ".stl", ".off", ".glb", ".gltf", ".3mf", ".dae")
                       if s[1:] in trimesh.available_formats())
 CLOUD_SUFFIXES = (".xyz", ".txt", ".pts", ".csv", ".npy", ".npz")   # and .ply without faces
+IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg")
+SUFFIXES = MESH_SUFFIXES + CLOUD_SUFFIXES + IMAGE_SUFFIXES   # every input kind reconstruct reads
 MIN_POINTS = 100
 MAX_BYTES = 1 << 30            # 1 GiB
 MAX_FACES = 5_000_000          # larger meshes are kept as LARGE_POINTS surface points
 LARGE_POINTS = 1_000_000
 MAX_POINTS = 2_000_000         # larger clouds are subsampled to this
+MAX_SIDE = 6000
+MAX_PIXELS = MAX_SIDE ** 2     # a drawing's pixels at most (an A4 page scanned at 600 dpi: 35 million);
+                               # reading one takes about 30 bytes a pixel at its peak
 HEADER_LINES = 200             # leading non-numeric lines a text cloud may have
 GAP_SHARE = 0.02               # pieces whose boxes are this close (share of the scene's diagonal) touch
 MAIN_SHARE = 0.8               # the main group must hold this share of the area for others to go
@@ -94,6 +105,8 @@ def read_geometry(path: str | Path) -> Geometry:
             return _mesh_geometry(path)
     except UserError:
         raise
+    except TooLarge as exc:
+        raise UserError(path, str(exc), "decimate the mesh first") from None
     except Exception as exc:  # numpy and trimesh raise many types for a broken file
         raise UserError(path, f"not a readable {suffix} file ({one_line(exc, 120)})",
                         "export it again from its tool") from None
@@ -103,16 +116,35 @@ def read_geometry(path: str | Path) -> Geometry:
 # -- clouds ---------------------------------------------------------------------------------------
 
 def _numpy_cloud(path: Path) -> np.ndarray:
-    """An (N, >=3) array of a .npy, or of the .npz key that looks most like points."""
+    """An (N, >=3) array of a .npy, or of the .npz key that looks most like points (chosen
+    from the arrays' headers; only that one is unpacked, if it fits `MAX_BYTES`)."""
     if path.suffix.lower() == ".npy":
         return np.load(path, allow_pickle=False)
     with np.load(path, allow_pickle=False) as archive:
-        shaped = [k for k in archive.files if archive[k].ndim == 2 and archive[k].shape[1] >= 3]
+        headers = {k: _npz_header(archive, k) for k in archive.files}
+        shaped = [k for k, (shape, _) in headers.items() if len(shape) == 2 and shape[1] >= 3]
         if not shaped:
             raise UserError(path, f"no N x 3 array among {archive.files}",
                             "save the points as an N x 3 array")
         named = [k for k in shaped if k.lower() in ("points", "xyz", "pc", "cloud", "vertices", "pos")]
-        return archive[(named or shaped)[0]]
+        key = (named or shaped)[0]
+        shape, dtype = headers[key]
+        unpacked = math.prod(shape) * dtype.itemsize
+        if unpacked > MAX_BYTES:
+            raise UserError(path, f"its array {key!r} {shape} is {unpacked / 2**30:.1f} GiB unpacked, above "
+                            f"the {MAX_BYTES / 2**30:.0f} GiB limit", "subsample the cloud first")
+        return archive[key]
+
+
+def _npz_header(archive, key: str) -> tuple[tuple, np.dtype]:
+    """(shape, dtype) of one array of a .npz, from its .npy header: nothing unpacked."""
+    readers = {(1, 0): np.lib.format.read_array_header_1_0, (2, 0): np.lib.format.read_array_header_2_0}
+    with archive.zip.open(f"{key}.npy") as member:
+        version = np.lib.format.read_magic(member)
+        if version not in readers:
+            raise ValueError(f"array {key!r}: .npy version {version} is not read")
+        shape, _, dtype = readers[version](member)
+    return shape, dtype
 
 
 _NUMBER = re.compile(r"^[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$|^[-+]?(nan|inf)$", re.IGNORECASE)
@@ -172,15 +204,41 @@ def _check_finite(path: Path, array: np.ndarray, what: str) -> None:
 # -- meshes and scenes ----------------------------------------------------------------------------
 
 def _load(path: Path):
-    """trimesh's reading of the file; ModelNet's `OFF<counts>` first line is split first."""
+    """trimesh's reading of the file, without its materials and textures, the files it refers
+    to bounded (`BoundedFiles`); ModelNet's `OFF<counts>` first line is split first."""
     suffix = path.suffix.lower()
     if suffix == ".off":
         data = path.read_bytes()
         fixed = re.sub(rb"^\s*OFF(?=[\s]*[-+\d])", b"OFF\n", data, count=1)
         return trimesh.load(io.BytesIO(fixed), file_type="off", process=False)
+    options = {"process": False, "skip_materials": True, "resolver": BoundedFiles(path)}
     if suffix == ".obj":   # one piece per `o`/`g` object, so that far-apart objects can be told
-        return trimesh.load(path, process=False, split_objects=True, group_material=False)
-    return trimesh.load(path, process=False)
+        return trimesh.load(path, split_objects=True, group_material=False, **options)
+    return trimesh.load(path, **options)
+
+
+class BoundedFiles(trimesh.resolvers.FilePathResolver):
+    """trimesh's reader of the files a mesh file refers to (a glTF's buffers), in its folder:
+    each is counted, before it is read, against what `MAX_BYTES` leaves beside the file."""
+
+    def __init__(self, path: Path):
+        super().__init__(str(path))
+        self.path, self.left, self.seen = path, MAX_BYTES - path.stat().st_size, set()
+
+    def absolute(self, name: str) -> Path:
+        found = super().absolute(name)
+        if found.is_file() and found not in self.seen:
+            self.seen.add(found)
+            self.left -= found.stat().st_size
+            if self.left < 0:
+                raise TooLarge(f"with the files it refers to ({found.name} the last) it is above the "
+                               f"{MAX_BYTES / 2**30:.0f} GiB limit")
+        return found
+
+
+class TooLarge(OSError):
+    """The files a mesh refers to come to more than `MAX_BYTES` (not a ValueError: trimesh's
+    resolver takes those for a name it should try otherwise)."""
 
 
 def scene_pieces(loaded) -> tuple[list[trimesh.Trimesh], list[np.ndarray]]:
@@ -294,6 +352,29 @@ def _mesh_geometry(path: Path) -> Geometry:
         return Geometry(path, points, None, f"{note}, above {MAX_FACES} faces: "
                         f"kept as {LARGE_POINTS} surface points")
     return Geometry(path, None, mesh, note)
+
+
+# -- drawings -------------------------------------------------------------------------------------
+
+def open_image(path: Path) -> Image.Image:
+    """A PNG or JPEG drawing, its header read and its size checked against `MAX_PIXELS`; its
+    pixels are decoded only at `load()`. PIL's own check (which stops far larger images with an
+    exception of its own) is lifted for the header, so that one line says the size."""
+    limit, Image.MAX_IMAGE_PIXELS = Image.MAX_IMAGE_PIXELS, None
+    try:
+        image = Image.open(path, formats=("PNG", "JPEG"))
+    except (OSError, ValueError) as exc:
+        raise UserError(path, f"not a readable PNG or JPEG image ({one_line(exc, 120)})",
+                        "save the drawing as .png or .jpg") from None
+    finally:
+        Image.MAX_IMAGE_PIXELS = limit
+    width, height = image.size
+    if width * height > MAX_PIXELS:
+        image.close()
+        raise UserError(path, f"{width} x {height} pixels is over the limit of {MAX_PIXELS / 1e6:.0f} million",
+                        f"give a drawing of at most {MAX_SIDE} x {MAX_SIDE} pixels (scale it down: "
+                        "it is brought to 224 x 224)")
+    return image
 
 
 # -- sampling -------------------------------------------------------------------------------------

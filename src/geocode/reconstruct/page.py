@@ -150,6 +150,21 @@ def picture_stem(name: str) -> str:
     return f"{safe}-{hashlib.sha1(name.encode()).hexdigest()[:8]}"
 
 
+def picture_path(name: str, role: str) -> str:
+    """An input's picture, relative to the page: `role` is input, result, result-drawing (a
+    drawing's: our line drawing of the result) or candidate<rank> (2, 3, ...)."""
+    return f"{PICTURES}/{picture_stem(name)}-{role}.png"
+
+
+def picture_roles(candidates: int) -> list[str]:
+    """The roles of an input's pictures, for `candidates` ranked answers."""
+    return ["input", "result", "result-drawing", *(f"candidate{rank}" for rank in range(2, candidates + 1))]
+
+
+# a picture of ours, or the temporary file of one (`geocode.outputs`): nothing else in page/ is removed
+OUR_PICTURE = re.compile(r"\.?.+-[0-9a-f]{8}-(input|result|result-drawing|candidate\d+)\.png(\.\w+\.tmp)?")
+
+
 def render_entry(entry: Entry, out_dir: str | Path, render: Render | None = None,
                  place: Callable[[Path], Path] | None = None) -> Entry:
     """Write `entry`'s pictures under `<out_dir>/page/` (input, result, line drawing of the
@@ -160,20 +175,20 @@ def render_entry(entry: Entry, out_dir: str | Path, render: Render | None = None
         return entry
     render = render or blender_render
     place = place or (lambda path: path)
-    out_dir, stem = Path(out_dir), f"{PICTURES}/{picture_stem(entry.name)}"
-    pictures = {"input": f"{stem}-input.png", "result": f"{stem}-result.png"}
+    out_dir = Path(out_dir)
+    pictures = {"input": picture_path(entry.name, "input"), "result": picture_path(entry.name, "result")}
     started = time.perf_counter()
     if entry.kind == "drawing":
         save_drawing(entry.input, place(out_dir / pictures["input"]))
         if entry.result_drawing is not None:
-            pictures["result_drawing"] = f"{stem}-result-drawing.png"
+            pictures["result_drawing"] = picture_path(entry.name, "result-drawing")
             save_drawing(entry.result_drawing, place(out_dir / pictures["result_drawing"]))
     else:
         shape = cloud_mesh(entry.input) if entry.kind == "cloud" else single_sided(entry.input)
         render(shape, place(out_dir / pictures["input"]), color=INPUT_COLOR, size=SIZE)
     render(entry.result, place(out_dir / pictures["result"]), size=SIZE)
     for rank, candidate in enumerate(entry.candidates, start=2):
-        candidate.picture = f"{stem}-candidate{rank}.png"
+        candidate.picture = picture_path(entry.name, f"candidate{rank}")
         render(candidate.mesh, place(out_dir / candidate.picture), size=THUMB)
     entry.pictures = pictures
     log.debug("page %s: %d pictures in %.2f s", entry.name, len(pictures) + len(entry.candidates),
@@ -207,11 +222,12 @@ def write_page(entries: Sequence[Entry], out_dir: str | Path, title: str, *,
 
 
 def remove_stale_pictures(out_dir: Path, entries: Sequence[Entry]) -> None:
-    """Pictures (and temporary files of an interrupted run) in page/ the page does not show."""
+    """Our pictures (and temporary files of an interrupted run) in page/ that the page does not
+    show; any other file there is left alone."""
     shown = {Path(p).name for e in entries for p in e.pictures.values()}
     shown |= {Path(c.picture).name for e in entries for c in e.candidates if c.picture}
     for path in (out_dir / PICTURES).glob("*"):
-        if path.is_file() and path.name not in shown and path.suffix in (".png", ".tmp"):
+        if path.is_file() and path.name not in shown and OUR_PICTURE.fullmatch(path.name):
             path.unlink()
 
 

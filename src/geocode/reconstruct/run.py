@@ -33,7 +33,7 @@ from PIL import Image
 from scipy import ndimage
 
 from geocode.reconstruct import pose as poses
-from geocode.errors import UserError
+from geocode.errors import UserError, one_line
 from geocode.reconstruct.fit import (
     RESTARTS,
     CloudDistance,
@@ -46,14 +46,12 @@ from geocode.reconstruct.fit import (
     network_starts,
     shape_points,
 )
-from geocode.reconstruct.inputs import CLOUD_SUFFIXES, MESH_SUFFIXES, Geometry, read_geometry, surface_points
+from geocode.reconstruct.inputs import IMAGE_SUFFIXES, Geometry, open_image, read_geometry, surface_points
 from geocode.meshio import normalise_unit_sphere
 from geocode.points import network_cloud
 
 log = logging.getLogger(__name__)
 
-IMAGES = (".png", ".jpg", ".jpeg")
-SUFFIXES = MESH_SUFFIXES + CLOUD_SUFFIXES + IMAGES
 SKETCH_SIZE = 224
 SKETCH_EXTENT = 191            # median extent of the strokes in the dataset's sketches (px)
 STROKE = 2.0                   # their stroke width (px)
@@ -61,7 +59,7 @@ TURNS = 8                      # turns about the up axis at which the network se
 UP_CANDIDATES = 2              # up axes tried with --up auto
 NEAREST = 3                    # nearest training shapes added to the starts
 TARGET_POINTS = 4096           # points of the input the fit compares with
-WORKERS = 8                    # default processes of the fit at most (a CMA-ES generation: 12-17 candidates)
+WORKERS = 8                    # default processes at most (a CMA-ES generation: 12-17 candidates)
 SCORE_POINTS = 10000           # points each of the reported (plain) Chamfer distances
 PAGE_NOTE = ("Chamfer distance to the input: unit sphere, squared, mean of both directions / 2;"
              " drawings: mean distance between the strokes (px of 224), both ways / 2")
@@ -70,17 +68,18 @@ PAGE_NOTE = ("Chamfer distance to the input: unit sphere, squared, mean of both 
 def sketch_from_image(path: Path) -> np.ndarray:
     """A drawing (dark strokes on a light background, any size) as a training sketch:
     (1, 224, 224) float32, white 1, strokes 0."""
-    try:
-        with Image.open(path) as im:
+    with open_image(path) as im:
+        try:
             im.load()
             rgba = im.convert("RGBA")
-    except (OSError, ValueError) as exc:
-        raise UserError(f"{path}: not a readable image ({exc})") from None
+        except (OSError, ValueError) as exc:
+            raise UserError(path, f"not a readable image ({one_line(exc, 120)})", "save the drawing again") from None
     white = Image.new("RGBA", rgba.size, "white")
-    gray = np.asarray(Image.alpha_composite(white, rgba).convert("L"), dtype=np.float64)
-    if gray.max() - gray.min() < 32:
+    gray = np.asarray(Image.alpha_composite(white, rgba).convert("L"))
+    darkest, lightest = int(gray.min()), int(gray.max())
+    if lightest - darkest < 32:
         raise UserError(f"{path}: the image is blank (no strokes); draw dark lines on white")
-    ink = gray < (gray.max() + gray.min()) / 2
+    ink = gray < (lightest + darkest) / 2
     ys, xs = np.nonzero(ink)
     ink = ink[ys.min():ys.max() + 1, xs.min():xs.max() + 1]
     width = 2 * np.percentile(ndimage.distance_transform_edt(ink)[ink], 90)
@@ -168,7 +167,7 @@ class Reconstructor:
             return
         # processes beside this one that score the fit's candidates: started now, so that
         # their Blender loads while the network and the training shapes do
-        self.helpers = (min(len(os.sched_getaffinity(0)), WORKERS) if workers is None else workers) - 1
+        self.helpers = (default_workers() if workers is None else workers) - 1
         if self.refine > 0 and self.helpers > 0:
             helper_pool(domain, self.helpers)
         self.checkpoint = checkpoint or default_checkpoint(cfg, domain)
@@ -181,7 +180,7 @@ class Reconstructor:
 
     def __call__(self, path: Path) -> Reconstruction:
         started = time.perf_counter()
-        if path.suffix.lower() in IMAGES:
+        if path.suffix.lower() in IMAGE_SUFFIXES:
             result = self.drawing(path)
         else:
             result = self.shape(path)
@@ -339,19 +338,8 @@ def training_shapes(split_dir: Path):
 
 # -- the command --------------------------------------------------------------------------------
 
-def inputs_of(path: Path, recursive: bool) -> list[Path]:
-    """The input files: `path` itself, or the files of the folder with a known suffix."""
-    if not path.exists():
-        raise UserError(f"{path}: no such file or folder; check the path")
-    if path.is_file():
-        return [path]
-    found = sorted(p for p in (path.rglob("*") if recursive else path.iterdir())
-                   if p.is_file() and p.suffix.lower() in SUFFIXES)
-    if not found:
-        raise UserError(path, "no mesh, cloud or drawing files in the folder"
-                        + ("" if recursive else " (--recursive reads subfolders)"),
-                        f"give a folder of {', '.join(SUFFIXES)} files")
-    return found
+def default_workers() -> int:
+    return min(len(os.sched_getaffinity(0)), WORKERS)
 
 
 def reconstruct(cfg, domain: str, input_path: Path, out_dir: Path, checkpoint: Path | None = None,
@@ -359,52 +347,93 @@ def reconstruct(cfg, domain: str, input_path: Path, out_dir: Path, checkpoint: P
                 recursive: bool = False, workers: int | None = None) -> dict:
     """Reconstruct one input file, or every input of a folder, into `out_dir`: per input
     <name>.yaml, .obj, .in-place.obj (3D inputs), .png and .blend (all of them, or none where
-    that input fails), and `index.html` + `summary.csv` over all inputs."""
+    that input fails; names: `geocode.reconstruct.plan`), and `index.html` + `summary.csv` over
+    all inputs. `workers` processes: one file's fit shares its candidates between them (this
+    one included); a folder's files are spread over them (`geocode.reconstruct.workers`), each
+    reconstructing whole files, and gathered here in input order."""
+    from contextlib import closing
+
     from geocode.reconstruct import page
+    from geocode.reconstruct.plan import plan_run
+    from geocode.reconstruct.workers import spread
     from geocode.timing import Progress
 
-    files = inputs_of(Path(input_path), recursive)
-    root = Path(input_path) if Path(input_path).is_dir() else Path(input_path).parent
-    run = Reconstructor(cfg, domain, checkpoint, refine, up, candidates, workers=workers)
-    progress = Progress(f"reconstruct {domain}", len(files), log, every=0.0 if len(files) > 1 else 1e9)
+    plan = plan_run(Path(input_path), Path(out_dir), recursive, candidates)
+    settings = {"domain": domain, "checkpoint": checkpoint, "refine": refine, "up": up, "candidates": candidates}
+    workers = default_workers() if workers is None else workers
+    processes = min(workers, len(plan.jobs))
+    outcomes = (spread(cfg, settings, plan, processes, workers // processes) if processes > 1
+                else in_process(cfg, settings, plan, workers))
+    many = len(plan.jobs) > 1
+    progress = Progress(f"reconstruct {domain}", len(plan.jobs), log, every=0.0 if many else 1e9)
     entries, summaries = [], []
-    for path in files:
-        name = path.relative_to(root).as_posix()
-        started = time.perf_counter()
-        try:
-            result = run(path)
-            entry = write_outputs(run, result, out_dir / Path(name).with_suffix(""), out_dir, name)
-            # a user's seconds: the pictures, .blend and other files included
-            entry.seconds = result.summary["seconds"] = round(time.perf_counter() - started, 2)
-            summaries.append(result.summary)
-        except UserError as exc:
-            if len(files) == 1:
-                raise
-            log.warning("%s", exc)
-            entry = page.Entry(name=name, kind="", error=str(exc))
-            summaries.append({"input": str(path), "error": str(exc)})
-        entries.append(entry)
-        progress.step()
-    if len(files) > 1:
-        progress.finish()
-    page.write_page(entries, out_dir, f"geocode reconstruct {domain}", note=PAGE_NOTE)
-    if len(files) == 1:
+    with closing(outcomes):
+        for entry, summary in outcomes:
+            if entry.error:
+                log.warning("%s", entry.error)
+            entries.append(entry)
+            summaries.append(summary)
+            progress.step()
+    page.write_page(entries, plan.out_dir, f"geocode reconstruct {domain}", note=PAGE_NOTE)
+    if not many:
         return summaries[0]
+    progress.finish()
     done = [s for s in summaries if "error" not in s]
     seconds = [s["seconds"] for s in done]
     # the medians of each kind of distance (3D inputs' Chamfer, drawings' px) apart
     medians = {f"{key}_median": round(float(np.median(values)), 6)
                for key in ("chamfer_before", "chamfer_after", "drawing_before", "drawing_after")
                if (values := [s[key] for s in done if key in s])}
-    return {"inputs": len(files), "reconstructed": len(done), "failed": len(files) - len(done),
+    return {"inputs": len(summaries), "reconstructed": len(done), "failed": len(summaries) - len(done),
             **medians,
             "seconds_median": round(float(np.median(seconds)), 2) if seconds else None,
             "seconds_range": [min(seconds), max(seconds)] if seconds else None,
-            "page": str(out_dir / "index.html")}
+            "page": str(plan.out_dir / "index.html")}
 
 
-def write_outputs(run: Reconstructor, result: Reconstruction, stem: Path, out_dir: Path, name: str):
-    """One input's files (reserved first: all of them or none) and its page entry."""
+def in_process(cfg, settings: dict, plan, workers: int):
+    """(page entry, summary) of each input, reconstructed in this process, in order. A single
+    input's record goes with its outputs (a failed one leaves nothing); a folder's is written
+    first, as its page will be whatever happens."""
+    run = Reconstructor(cfg, **settings, workers=workers)
+    alone = len(plan.jobs) == 1
+    if not alone:
+        plan.write_record()
+    for job in plan.jobs:
+        yield reconstruct_file(run, job, plan.out_dir, alone=alone, record=plan if alone else None)
+
+
+def reconstruct_file(run: Reconstructor, job, out_dir: Path, alone: bool = False, record=None):
+    """One input reconstructed and its files written: (its page entry, its summary). A UserError
+    stops the run where the input is `alone`; else it is the input's entry (its one line)."""
+    from geocode.reconstruct import page
+
+    started = time.perf_counter()
+    try:
+        result = run(job.path)
+        entry = write_outputs(run, result, job.stem, out_dir, job.name, record)
+    except UserError as exc:
+        if alone:
+            raise
+        return page.Entry(name=job.name, kind="", error=str(exc)), {"input": str(job.path), "error": str(exc)}
+    # a user's seconds: the pictures, .blend and other files included
+    entry.seconds = result.summary["seconds"] = round(time.perf_counter() - started, 2)
+    return drawn(entry), result.summary
+
+
+def drawn(entry):
+    """A page entry whose pictures are drawn, without the meshes they were drawn from (a
+    cloud's points stay: the page counts them)."""
+    from dataclasses import replace
+
+    return replace(entry, input=entry.input if entry.kind == "cloud" else None, result=None, result_drawing=None,
+                   candidates=[replace(c, mesh=None) for c in entry.candidates])
+
+
+def write_outputs(run: Reconstructor, result: Reconstruction, stem: Path, out_dir: Path, name: str,
+                  record=None):
+    """One input's files (reserved first: all of them or none) and its page entry; with
+    `record` (a `plan.Plan`), the output folder's record too, in the same transaction."""
     from geocode.reconstruct import page
     from geocode.blender.gallery import grid
     from geocode.meshio import obj_text
@@ -415,6 +444,8 @@ def write_outputs(run: Reconstructor, result: Reconstruction, stem: Path, out_di
     best = result.answers[0]
     with Outputs() as out:
         files = {s: out.reserve(stem.parent / f"{stem.name}{s}") for s in suffixes}
+        if record is not None:
+            out.reserve(record.record_path).write_text(record.record_text())
         write_shape(files[".obj"], files[".yaml"], run.program, best.values)
         posed = run.mesh(best)
         if result.frame is not None:
