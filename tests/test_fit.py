@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from geocode.reconstruct.fit import CloudDistance, Pose, Start, trimmed_mean
+from geocode.reconstruct.fit import CloudDistance, Pose, Start, align, trimmed_mean
 from geocode.points import sample_surface
 
 
@@ -22,6 +22,38 @@ def test_plain_distance_is_the_metric_chamfer():
 
     a, b = box_points(500, 0), box_points(700, 1) * 1.1
     assert CloudDistance(b, trim=0.0)(a) == pytest.approx(chamfer(a, b))
+
+
+def test_the_distance_built_once_per_target_is_the_distance_from_scratch():
+    """The target's cells, its chosen points and their order are built once: the distance of
+    any shape is the trimmed Chamfer distance computed afresh with scipy's tree, and a second
+    CloudDistance of the same target gives the same floats."""
+    from scipy.spatial import cKDTree
+
+    target = box_points(5000, 5) * [1.0, 1.1, 0.9]
+    distance = CloudDistance(target)
+    assert len(distance.target) == 2048 and len(distance.coarse) == 512
+    for seed in (6, 7):
+        shape = Pose(turn=0.1, scale=0.95).apply(box_points(2048, seed))
+        to_target = cKDTree(distance.target).query(shape)[0] ** 2
+        to_shape = cKDTree(shape).query(distance.target)[0] ** 2
+        expected = (trimmed_mean(to_target, 0.02) + trimmed_mean(to_shape, 0.02)) / 2
+        assert distance(shape) == pytest.approx(expected, rel=1e-12)
+        assert CloudDistance(target)(shape) == distance(shape)
+
+
+def test_align_finds_the_pose_of_a_turned_scaled_moved_copy():
+    def shape(n: int, seed: int) -> np.ndarray:   # a box and a post at one corner: no symmetry
+        mesh = trimesh.util.concatenate([trimesh.creation.box((1.0, 0.6, 0.2)),
+                                         trimesh.creation.box((0.2, 0.2, 0.8)).apply_translation((0.4, 0.2, 0.5))])
+        return sample_surface(mesh, n, np.random.default_rng(seed)).astype(np.float64)
+
+    truth = Pose(turn=0.25, scale=0.9, offset=(0.05, -0.03, 0.02))
+    distance = CloudDistance(truth.apply(shape(4000, 8)))
+    found = align(shape(2048, 9), distance, Pose(), steps=30)   # (a fit's evaluation takes 3)
+    assert found.turn == pytest.approx(truth.turn, abs=0.05)
+    assert found.scale == pytest.approx(truth.scale, abs=0.02)
+    assert found.offset == pytest.approx(truth.offset, abs=0.01)
 
 
 def test_trimmed_mean_drops_the_largest_share():

@@ -30,19 +30,20 @@ import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
+import numba
 import numpy as np
-from scipy.spatial import cKDTree
 
-from geocode.meshio import normalise_unit_sphere
-from geocode.metrics import quick_tree
-from geocode.points import sample_surface
+from geocode.meshio import unit_sphere_vertices
+from geocode.metrics import Cells, bucket, cell_side, nearest
+from geocode.points import surface_samples
 
 FIT_POINTS = 2048    # points sampled on each candidate (fixed seed: a deterministic objective)
+DISTANCE_POINTS = 2048   # points of the target (a seeded choice) that the distance compares with
 SIGMA = 0.15         # CMA-ES's initial step, in units of each coordinate's range
 TRIM = 0.02          # share of each direction's largest distances the fit ignores
 RESTARTS = 2         # CMA-ES runs, from the best starts
 ALIGN_STEPS = 3      # closed-form pose steps per evaluation (`align`) ...
-ALIGN_POINTS = 1024  # ... each pairing this many points of either cloud (a pose of five numbers
+ALIGN_POINTS = 512   # ... each pairing this many points of either cloud (a pose of five numbers
                      # needs few; the distance it returns uses them all)
 MAX_TURN = math.pi / 6   # how far `align` may turn a shape from its start's turn
 SCALE_RANGE = 1.3        # ... and scale it (a factor in [1/1.3, 1.3])
@@ -130,24 +131,30 @@ class CloudDistance:
     """
 
     def __init__(self, target: np.ndarray, trim: float = TRIM):
-        self.target = np.asarray(target, dtype=np.float64)
-        self.tree = cKDTree(self.target)
+        target = np.asarray(target, dtype=np.float64)
+        # a seeded choice: a cloud's points may come in the file's order
+        chosen = target[np.random.default_rng(0).permutation(len(target))[:DISTANCE_POINTS]]
+        self.cells = Cells(chosen)
+        self.target = self.cells.points                          # (in cell order: queries go sooner)
+        self.coarse = Cells(chosen[:ALIGN_POINTS]).points        # what `align` pairs ...
+        self.coarse_cells = Cells(self.coarse)                   # ... its indices name rows of `coarse`
         self.trim = trim
-        self.coarse = self.target[:ALIGN_POINTS]       # what `align` pairs (random order)
-        self.coarse_tree = cKDTree(self.coarse)
 
     def __call__(self, points: np.ndarray) -> float:
-        to_target = self.tree.query(points)[0] ** 2
-        to_shape = quick_tree(points).query(self.target)[0] ** 2
+        shape = Cells(points)
+        to_target = self.cells.query(shape.points)[0] ** 2
+        to_shape = shape.query(self.target)[0] ** 2
         if self.trim == 0:
             return float((np.mean(to_target) + np.mean(to_shape)) / 2)
         return (trimmed_mean(to_target, self.trim) + trimmed_mean(to_shape, self.trim)) / 2
 
 
 def shape_points(program, values: Mapping[str, float], n: int = FIT_POINTS) -> np.ndarray:
-    """n surface points of the program's shape on the unit sphere (fixed seed)."""
-    return sample_surface(normalise_unit_sphere(program.evaluate(values)), n,
-                          np.random.default_rng(0)).astype(np.float64)
+    """n surface points of the program's shape on the unit sphere (fixed seed), float32
+    values (as `points.sample_surface` gives) in float64."""
+    mesh = program.evaluate(values)
+    points = surface_samples(unit_sphere_vertices(mesh.vertices), mesh.faces, n, np.random.default_rng(0))
+    return points.astype(np.float32).astype(np.float64)
 
 
 class SearchSpace:
@@ -186,30 +193,53 @@ def align(points: np.ndarray, distance: CloudDistance, pose: Pose,
           steps: int = ALIGN_STEPS) -> Pose:
     """`pose` refined so that the posed `points` lie on the distance's target: each step pairs
     each of ALIGN_POINTS points of either cloud (random samples) with its nearest in the other
-    (the `trim` share of farthest pairs dropped) and solves for the best turn about +Z, scale and offset in closed form
-    (least squares). The turn moves at most MAX_TURN and the scale stays within SCALE_RANGE
-    of the start, so that the pose cannot run off to a degenerate fit."""
-    start, points, target = pose, points[:ALIGN_POINTS], distance.coarse
+    (the `trim` share of farthest pairs dropped) and solves for the best turn about +Z, scale
+    and offset in closed form (least squares; `_align_steps`). The turn moves at most MAX_TURN
+    and the scale stays within SCALE_RANGE of the start, so that the pose cannot run off to a
+    degenerate fit."""
+    points = np.ascontiguousarray(points[:ALIGN_POINTS], dtype=np.float64)
+    turn, scale, offset = _align_steps(points, cell_side(len(points)), distance.coarse, distance.coarse_cells.grid,
+                                       pose.turn, pose.scale, np.array(pose.offset, dtype=np.float64),
+                                       steps, distance.trim)
+    turn = pose.turn + float(np.clip(turn - pose.turn, -MAX_TURN, MAX_TURN))
+    scale = float(np.clip(scale / pose.scale, 1 / SCALE_RANGE, SCALE_RANGE)) * pose.scale
+    return Pose(turn=turn, scale=scale, offset=tuple(float(o) for o in offset))
+
+
+@numba.njit(cache=True, nogil=True)
+def _align_steps(points, side, target, target_grid, turn, scale, offset, steps, trim):
+    """`align`'s steps, compiled: (turn, scale, offset) after them. `target_grid`: the
+    target's `metrics.bucket`."""
+    n, m = len(points), len(target)
+    posed, p, q, d = np.empty((n, 3)), np.empty((n + m, 3)), np.empty((n + m, 3)), np.empty(n + m)
     for _ in range(steps):
-        posed = pose.apply(points)
-        d_to, i_to = distance.coarse_tree.query(posed)
-        d_from, i_from = quick_tree(posed).query(target)
-        p = np.concatenate([posed, posed[i_from]])
-        q = np.concatenate([target[i_to], target])
-        d = np.concatenate([d_to, d_from])
-        keep = d <= np.quantile(d, 1.0 - distance.trim) if distance.trim > 0 else slice(None)
-        p, q = p[keep], q[keep]
-        mp, mq = p.mean(axis=0), q.mean(axis=0)
-        a, b = p - mp, q - mq
-        turn = math.atan2(np.sum(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]),
-                          np.sum(a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1]))
-        rotated = Pose(turn=turn).apply(a)
-        scale = float(np.sum(rotated * b) / max(np.sum(a * a), 1e-12))
-        step = Pose(turn=turn, scale=scale)
-        pose = pose.then(Pose(turn=turn, scale=scale, offset=tuple(mq - step.apply(mp[None])[0])))
-    turn = start.turn + float(np.clip(pose.turn - start.turn, -MAX_TURN, MAX_TURN))
-    scale = float(np.clip(pose.scale / start.scale, 1 / SCALE_RANGE, SCALE_RANGE)) * start.scale
-    return Pose(turn=turn, scale=scale, offset=pose.offset)
+        c, s = math.cos(turn), math.sin(turn)
+        for i in range(n):
+            x, y = points[i, 0], points[i, 1]
+            posed[i, 0] = scale * (c * x - s * y) + offset[0]
+            posed[i, 1] = scale * (s * x + c * y) + offset[1]
+            posed[i, 2] = scale * points[i, 2] + offset[2]
+        grid = bucket(posed, side)
+        d_to, i_to = nearest(*target_grid, grid[5])    # (the posed points in cell order: sooner)
+        d_from, i_from = nearest(*grid, target)
+        p[:n], q[:n], d[:n] = grid[5], target[i_to], d_to
+        p[n:], q[n:], d[n:] = posed[i_from], target, d_from
+        keep = d <= (np.quantile(d, 1.0 - trim) if trim > 0 else np.inf)
+        mp, mq = np.zeros(3), np.zeros(3)
+        for k in range(3):
+            mp[k], mq[k] = p[keep, k].mean(), q[keep, k].mean()
+        a, b = p[keep] - mp, q[keep] - mq
+        t = math.atan2(np.sum(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]), np.sum(a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1]))
+        ct, st = math.cos(t), math.sin(t)
+        turned = np.sum((ct * a[:, 0] - st * a[:, 1]) * b[:, 0] + (st * a[:, 0] + ct * a[:, 1]) * b[:, 1] + a[:, 2] * b[:, 2])
+        k = turned / max(np.sum(a * a), 1e-12)
+        # the step: x -> k R(t) x + mq - k R(t) mp, after the pose so far
+        step = np.array([mq[0] - k * (ct * mp[0] - st * mp[1]), mq[1] - k * (st * mp[0] + ct * mp[1]),
+                         mq[2] - k * mp[2]])
+        offset = np.array([k * (ct * offset[0] - st * offset[1]), k * (st * offset[0] + ct * offset[1]),
+                           k * offset[2]]) + step
+        turn, scale = turn + t, scale * k
+    return turn, scale, offset
 
 
 def score(program, distance: CloudDistance, pose: bool, values: Mapping[str, float],
