@@ -114,11 +114,16 @@ class TestFitOnAProgram:
         distances in the same order, so the same fit."""
         from geocode.reconstruct.fit import fit
 
+        from geocode.reconstruct.fit import Scorer
+
         program, recipe = vase
         target = self.target(vase, Pose(turn=0.2, scale=0.95))
         alone, shared = (fit(program, recipe, [Start(dict(self.SHAPE))], target, budget=40, seed=0,
                              helpers=helpers) for helpers in (0, 1))
         assert shared.curve == alone.curve and shared.values == alone.values and shared.pose == alone.pose
+        rng = np.random.default_rng(0)   # a batch, as a CMA-ES generation is shared out
+        batch = [(program.random_values(rng), 0.3 * k) for k in range(6)]
+        assert Scorer(program, target, 0.02, True, helpers=1)(batch) == Scorer(program, target, 0.02, True)(batch)
 
     def test_sweeps_correct_one_parameter_exactly(self, vase):
         """A start one sweep step off in one parameter: the first sweep moves it back, where
