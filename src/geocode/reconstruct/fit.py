@@ -492,9 +492,9 @@ def sweep_discrete(objective, space: SearchSpace, x: np.ndarray, f: float,
     evaluations. CMA-ES moves a discrete coordinate only as one of dozens at once, so that a
     wrong class of the network (a leg or slat count) is rarely corrected without this sweep."""
     x, used = np.array(x, dtype=np.float64), 0
-    first = len(space.continuous)
+    first, shown = len(space.continuous), space.shown(x)
     for j, (p, values) in enumerate(space.discrete):
-        if not space.shown(x)[p.name]:   # a leg count without legs: no evaluation spent
+        if not shown[p.name]:   # a leg count without legs: no evaluation spent
             continue
         for k in range(1, len(values)):
             if used >= budget:
@@ -505,6 +505,7 @@ def sweep_discrete(objective, space: SearchSpace, x: np.ndarray, f: float,
             used += 1
             if g < f:
                 x, f = y, g
+                shown = space.shown(x)
     return x, f
 
 
