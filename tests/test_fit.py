@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 import trimesh
 
-from geocode.reconstruct.fit import CloudDistance, Pose, Start, align, trimmed_mean
 from geocode.points import sample_surface
+from geocode.reconstruct.fit import CloudDistance, Pose, Start, align, trimmed_mean
 
 
 def box_points(n: int, seed: int, bottom: bool = True) -> np.ndarray:
@@ -112,9 +112,7 @@ class TestFitOnAProgram:
     def test_helper_processes_give_the_same_fit(self, vase):
         """Candidates scored in a helper process (its own Blender) beside this one: the same
         distances in the same order, so the same fit."""
-        from geocode.reconstruct.fit import fit
-
-        from geocode.reconstruct.fit import Scorer
+        from geocode.reconstruct.fit import Scorer, fit
 
         program, recipe = vase
         target = self.target(vase, Pose(turn=0.2, scale=0.95))
