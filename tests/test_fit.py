@@ -271,10 +271,11 @@ def test_sweeps_spend_no_evaluation_on_what_the_shape_hides():
         space, moved = SearchSpace(recipe, start), set()
         x0 = space.x0()
 
-        def objective(x, space=space, x0=x0, moved=moved):
-            before, after = space.values(x0), space.values(x)
-            moved.update(k for k in before if before[k] != after[k])
-            return 1.0
+        def objective(xs, space=space, x0=x0, moved=moved):
+            before = space.values(x0)
+            for x in xs:
+                moved.update(k for k, v in space.values(x).items() if before[k] != v)
+            return [1.0] * len(xs)
         sweep_discrete(objective, space, x0, 1.0, 100)
         sweep_continuous(objective, space, x0, 1.0, 100)
         assert moved == expected

@@ -373,17 +373,20 @@ def fit(program, recipe, starts: Sequence[Start], target: np.ndarray, budget: in
     runs = order[:max(1, min(restarts, len(order)))]
     for r, i in enumerate(runs):
         x, f = spaces[i].x0(), float(scores[i])
+        def batch(xs: Sequence[np.ndarray], i: int = int(i)) -> list[float]:
+            return evaluate([(i, x) for x in xs])
+
         for step in SWEEP_STEPS if r == 0 else ():
-            x, f = sweep_discrete(lambda y, i=int(i): evaluate([(i, y)])[0], spaces[i], x, f, budget - len(curve))
-            x, f = sweep_continuous(lambda y, i=int(i): evaluate([(i, y)])[0], spaces[i], x, f,
-                                    budget - len(curve), step)
+            x, f = sweep_discrete(batch, spaces[i], x, f, budget - len(curve))
+            x, f = sweep_continuous(batch, spaces[i], x, f, budget - len(curve), step)
         share = (budget - POLISH - len(curve)) // (len(runs) - r)
-        y, g = cma_search(lambda xs, i=int(i): evaluate([(i, x) for x in xs]), x, share, seed + r)
+        y, g = cma_search(batch, x, share, seed + r)
         x, f = (y, g) if g < f else (x, f)
         if f < best:
             best, best_x, best_i = f, x, int(i)
-    def polish(y: np.ndarray) -> float:
-        return evaluate([(best_i, y)])[0]
+
+    def polish(xs: Sequence[np.ndarray]) -> list[float]:
+        return evaluate([(best_i, x) for x in xs])
 
     for step in POLISH_STEPS if POLISH else ():
         best_x, best = sweep_discrete(polish, spaces[best_i], best_x, best, budget - len(curve))
@@ -489,24 +492,26 @@ def cma_search(objective, x0: np.ndarray, budget: int, seed: int,
 def sweep_discrete(objective, space: SearchSpace, x: np.ndarray, f: float,
                    budget: int) -> tuple[np.ndarray, float]:
     """Greedy: each discrete parameter that the shape shows in turn tries its other candidate
-    values (the network's next choices), keeping any that lowers `objective`; at most `budget`
-    evaluations. CMA-ES moves a discrete coordinate only as one of dozens at once, so that a
-    wrong class of the network (a leg or slat count) is rarely corrected without this sweep."""
+    values (the network's next choices), keeping any that lowers `objective` (a batch of
+    candidates -> their values, as `cma_search`'s); at most `budget` evaluations. CMA-ES moves
+    a discrete coordinate only as one of dozens at once, so that a wrong class of the network
+    (a leg or slat count) is rarely corrected without this sweep. One parameter's choices
+    differ from the shape in that parameter alone, kept or not, so they go in one batch (which
+    the fit's helpers share), with the answer of trying them one after the other."""
     x, used = np.array(x, dtype=np.float64), 0
     first, shown = len(space.continuous), space.shown(x)
     for j, (p, values) in enumerate(space.discrete):
         if not shown[p.name]:   # a leg count without legs: no evaluation spent
             continue
-        for k in range(1, len(values)):
-            if used >= budget:
-                return x, f
-            y = x.copy()
-            y[first + j] = (k + 0.5) / len(values)
-            g = objective(y)
-            used += 1
+        tries = [np.concatenate([x[:first + j], [(k + 0.5) / len(values)], x[first + j + 1:]])
+                 for k in range(1, len(values))][:max(0, budget - used)]
+        used += len(tries)
+        kept = f
+        for y, g in zip(tries, objective(tries) if tries else [], strict=True):
             if g < f:
                 x, f = y, g
-                shown = space.shown(x)
+        if f < kept:
+            shown = space.shown(x)
     return x, f
 
 
@@ -514,7 +519,8 @@ def sweep_continuous(objective, space: SearchSpace, x: np.ndarray, f: float, bud
                      step: float = 0.15, extra: int = 0) -> tuple[np.ndarray, float]:
     """Greedy: each continuous parameter that the shape shows, then each of the `extra`
     coordinates after the parameters' (a drawing's camera), in turn tries +-`step` in the unit
-    box (the second side only when the first does not help), keeping what lowers `objective`;
+    box (the second side only when the first does not help), keeping what lowers `objective`
+    (as `sweep_discrete`'s);
     at most `budget` evaluations. Most parameters change one part of the shape; one at a time,
     each change is judged on its own, where a population of random moves of all of them at
     once mixes good and bad ones. A parameter of a part the shape lacks changes nothing, so
@@ -531,7 +537,7 @@ def sweep_continuous(objective, space: SearchSpace, x: np.ndarray, f: float, bud
             y[j] = np.clip(y[j] + sign * step, 0.0, 1.0)
             if y[j] == x[j]:
                 continue
-            g = objective(y)
+            g = objective([y])[0]
             used += 1
             if g < f:
                 x, f = y, g
