@@ -8,7 +8,7 @@ import pytest
 import trimesh
 
 from geocode.points import sample_surface
-from geocode.reconstruct.fit import CloudDistance, Pose, Start, trimmed_mean
+from geocode.reconstruct.fit import CloudDistance, Pose, Start, align, trimmed_mean
 
 
 def box_points(n: int, seed: int, bottom: bool = True) -> np.ndarray:
@@ -22,6 +22,38 @@ def test_plain_distance_is_the_metric_chamfer():
 
     a, b = box_points(500, 0), box_points(700, 1) * 1.1
     assert CloudDistance(b, trim=0.0)(a) == pytest.approx(chamfer(a, b))
+
+
+def test_the_distance_built_once_per_target_is_the_distance_from_scratch():
+    """The target's cells, its chosen points and their order are built once: the distance of
+    any shape is the trimmed Chamfer distance computed afresh with scipy's tree, and a second
+    CloudDistance of the same target gives the same floats."""
+    from scipy.spatial import cKDTree
+
+    target = box_points(5000, 5) * [1.0, 1.1, 0.9]
+    distance = CloudDistance(target)
+    assert len(distance.target) == 2048 and len(distance.coarse) == 512
+    for seed in (6, 7):
+        shape = Pose(turn=0.1, scale=0.95).apply(box_points(2048, seed))
+        to_target = cKDTree(distance.target).query(shape)[0] ** 2
+        to_shape = cKDTree(shape).query(distance.target)[0] ** 2
+        expected = (trimmed_mean(to_target, 0.02) + trimmed_mean(to_shape, 0.02)) / 2
+        assert distance(shape) == pytest.approx(expected, rel=1e-12)
+        assert CloudDistance(target)(shape) == distance(shape)
+
+
+def test_align_finds_the_pose_of_a_turned_scaled_moved_copy():
+    def shape(n: int, seed: int) -> np.ndarray:   # a box and a post at one corner: no symmetry
+        mesh = trimesh.util.concatenate([trimesh.creation.box((1.0, 0.6, 0.2)),
+                                         trimesh.creation.box((0.2, 0.2, 0.8)).apply_translation((0.4, 0.2, 0.5))])
+        return sample_surface(mesh, n, np.random.default_rng(seed)).astype(np.float64)
+
+    truth = Pose(turn=0.25, scale=0.9, offset=(0.05, -0.03, 0.02))
+    distance = CloudDistance(truth.apply(shape(4000, 8)))
+    found = align(shape(2048, 9), distance, Pose(), steps=30)   # (a fit's evaluation takes 3)
+    assert found.turn == pytest.approx(truth.turn, abs=0.05)
+    assert found.scale == pytest.approx(truth.scale, abs=0.02)
+    assert found.offset == pytest.approx(truth.offset, abs=0.01)
 
 
 def test_trimmed_mean_drops_the_largest_share():
@@ -79,13 +111,16 @@ class TestFitOnAProgram:
     def test_helper_processes_give_the_same_fit(self, vase):
         """Candidates scored in a helper process (its own Blender) beside this one: the same
         distances in the same order, so the same fit."""
-        from geocode.reconstruct.fit import fit
+        from geocode.reconstruct.fit import Scorer, fit
 
         program, recipe = vase
         target = self.target(vase, Pose(turn=0.2, scale=0.95))
         alone, shared = (fit(program, recipe, [Start(dict(self.SHAPE))], target, budget=40, seed=0,
                              helpers=helpers) for helpers in (0, 1))
         assert shared.curve == alone.curve and shared.values == alone.values and shared.pose == alone.pose
+        rng = np.random.default_rng(0)   # a batch, as a CMA-ES generation is shared out
+        batch = [(program.random_values(rng), 0.3 * k) for k in range(6)]
+        assert Scorer(program, target, 0.02, True, helpers=1)(batch) == Scorer(program, target, 0.02, True)(batch)
 
     def test_sweeps_correct_one_parameter_exactly(self, vase):
         """A start one sweep step off in one parameter: the first sweep moves it back, where
@@ -235,10 +270,11 @@ def test_sweeps_spend_no_evaluation_on_what_the_shape_hides():
         space, moved = SearchSpace(recipe, start), set()
         x0 = space.x0()
 
-        def objective(x, space=space, x0=x0, moved=moved):
-            before, after = space.values(x0), space.values(x)
-            moved.update(k for k in before if before[k] != after[k])
-            return 1.0
+        def objective(xs, space=space, x0=x0, moved=moved):
+            before = space.values(x0)
+            for x in xs:
+                moved.update(k for k, v in space.values(x).items() if before[k] != v)
+            return [1.0] * len(xs)
         sweep_discrete(objective, space, x0, 1.0, 100)
         sweep_continuous(objective, space, x0, 1.0, 100)
         assert moved == expected

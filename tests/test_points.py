@@ -47,17 +47,51 @@ def test_sampling_is_seeded():
     assert np.array_equal(a, b)
 
 
-def test_sampling_in_chunks_gives_the_same_points(monkeypatch):
+def reference_samples(vertices, faces, n, rng):
+    """`surface_samples`' definition in plain numpy, one array op at a time."""
+    def mix(x):
+        with np.errstate(over="ignore"):
+            x = x + np.uint64(0x9E3779B97F4A7C15)
+            x = (x ^ (x >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
+            x = (x ^ (x >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
+            return x ^ (x >> np.uint64(31))
+
+    def unit(x):
+        return (x >> np.uint64(11)).astype(np.float64) * 2.0 ** -53
+
+    tri = vertices[faces]
+    area = np.sqrt(np.einsum("ij,ij->i", *[np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])] * 2)) / 2
+    salt = mix(np.asarray(rng.integers(1 << 62, size=5), dtype=np.uint64))
+    face = np.arange(len(faces), dtype=np.uint64)
+    count = np.floor(area * (points.OVERSAMPLE * n / area.sum()) + unit(mix(face ^ salt[0]))).astype(np.int64)
+    number = np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)
+    ids = (np.repeat(face, count) << np.uint64(24)) | number.astype(np.uint64)
+    slot = (mix(ids ^ salt[1]) % np.uint64(n)).astype(np.int64)
+    rank = mix(ids ^ salt[2]) >> np.uint64(1)
+    best = np.full(n, np.iinfo(np.uint64).max)
+    np.minimum.at(best, slot, rank)
+    won = np.zeros(n, dtype=np.uint64)
+    won[slot[rank == best[slot]]] = ids[rank == best[slot]]
+    kept = np.flatnonzero(best != np.iinfo(np.uint64).max)
+    ids = won[kept[np.searchsorted(kept, np.arange(n)) % len(kept)]]
+    u, v = unit(mix(ids ^ salt[3])), unit(mix(ids ^ salt[4]))
+    u, v = np.where(u + v > 1, 1 - u, u), np.where(u + v > 1, 1 - v, v)
+    tri = vertices[faces[(ids >> np.uint64(24)).astype(np.int64)]]
+    return tri[:, 0] + u[:, None] * (tri[:, 1] - tri[:, 0]) + v[:, None] * (tri[:, 2] - tri[:, 0])
+
+
+def test_compiled_sampling_is_its_definition_to_the_bit():
     big = trimesh.creation.box((1, 1, 1))
     small = trimesh.creation.box((0.1, 0.1, 0.1)).apply_translation((3, 0, 0))
-    mesh = trimesh.util.concatenate([big, small])
-    whole = surface_samples(mesh.vertices, mesh.faces, 20000, np.random.default_rng(0))
-    monkeypatch.setattr(points, "CHUNK_FACES", 5)   # many chunks on a small mesh
-    chunked = surface_samples(mesh.vertices, mesh.faces, 20000, np.random.default_rng(0))
-    assert chunked.shape == (20000, 3) and np.array_equal(whole, chunked)
-    assert (chunked[:, 0] > 2).mean() == pytest.approx(small.area / mesh.area, abs=0.003)
-    inner = chunked[chunked[:, 0] < 2]   # on the unit box's faces: one coordinate at +-0.5
-    assert np.allclose(np.abs(inner).max(1), 0.5)
+    for mesh in (trimesh.util.concatenate([big, small]), trimesh.creation.icosphere(3),
+                 trimesh.creation.cylinder(0.3, 2.0, sections=37), two_triangles()):
+        for n, seed in ((2048, 0), (20000, 5), (7, 1)):
+            expected = reference_samples(mesh.vertices, mesh.faces, n, np.random.default_rng(seed))
+            found = surface_samples(mesh.vertices, mesh.faces, n, np.random.default_rng(seed))
+            assert np.array_equal(found, expected)
+    assert np.array_equal(points.face_areas(big.vertices, big.faces), big.area_faces)
+    with pytest.raises(ValueError, match="outside"):
+        points.face_areas(big.vertices, big.faces + 100)
 
 
 def test_a_mesh_moved_by_rounding_gives_the_same_points_moved_alike():

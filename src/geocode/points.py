@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import io
 import logging
+import math
 import zipfile
 from collections.abc import Mapping
 from pathlib import Path
@@ -23,35 +24,47 @@ from geocode.timing import Progress
 log = logging.getLogger(__name__)
 
 CLOUD_KEYS = ("fps", "random")
-CHUNK_FACES = 1 << 20   # faces whose triangles are held at once (9 float64 each: about 0.3 GB)
 _ID_BITS = 24           # a sample's id: its face << _ID_BITS | its number on that face
 OVERSAMPLE = 8          # candidate points per sample kept (`surface_samples`)
 
 
-def _mix(x: np.ndarray) -> np.ndarray:
+_GOLDEN, _MIX_A, _MIX_B = (np.uint64(0x9E3779B97F4A7C15), np.uint64(0xBF58476D1CE4E5B9),
+                           np.uint64(0x94D049BB133111EB))
+
+
+@numba.njit(cache=True, nogil=True)
+def _mix(x):
     """splitmix64's finaliser: a well-spread uint64 for each uint64 (wrapping arithmetic)."""
-    with np.errstate(over="ignore"):
-        x = x + np.uint64(0x9E3779B97F4A7C15)
-        x = (x ^ (x >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
-        x = (x ^ (x >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
-        return x ^ (x >> np.uint64(31))
+    x = x + _GOLDEN
+    x = (x ^ (x >> np.uint64(30))) * _MIX_A
+    x = (x ^ (x >> np.uint64(27))) * _MIX_B
+    return x ^ (x >> np.uint64(31))
 
 
-def _unit(x: np.ndarray) -> np.ndarray:
+@numba.njit(cache=True, nogil=True)
+def _unit(x):
     """uint64 -> float64 in [0, 1)."""
-    return (x >> np.uint64(11)).astype(np.float64) * 2.0 ** -53
+    return np.float64(x >> np.uint64(11)) * 2.0 ** -53
 
 
 def face_areas(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """Each face's area, (F,) float64, the triangles of CHUNK_FACES faces at a time."""
-    vertices, faces = np.asarray(vertices, dtype=np.float64), np.asarray(faces)
+    """Each face's area, (F,) float64 (ValueError for a face naming a missing vertex)."""
+    vertices = np.ascontiguousarray(vertices, dtype=np.float64).reshape(-1, 3)
+    faces = np.ascontiguousarray(faces, dtype=np.int64).reshape(-1, 3)
+    if len(faces) and not 0 <= faces.min() <= faces.max() < len(vertices):
+        raise ValueError(f"faces name vertices outside 0..{len(vertices) - 1}")
+    return _face_areas(vertices, faces)
+
+
+@numba.njit(cache=True, nogil=True)
+def _face_areas(vertices, faces):
     out = np.empty(len(faces))
-    for start in range(0, len(faces), CHUNK_FACES):
-        tri = vertices[faces[start:start + CHUNK_FACES]]
-        a, b = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
-        cross = np.stack([a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1], a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2],
-                          a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]], axis=1)
-        out[start:start + len(tri)] = np.sqrt(np.einsum("ij,ij->i", cross, cross)) / 2
+    for f in range(len(faces)):
+        p, q, r = vertices[faces[f, 0]], vertices[faces[f, 1]], vertices[faces[f, 2]]
+        ax, ay, az = q[0] - p[0], q[1] - p[1], q[2] - p[2]
+        bx, by, bz = r[0] - p[0], r[1] - p[1], r[2] - p[2]
+        cx, cy, cz = ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
+        out[f] = math.sqrt((cx * cx + cz * cz) + cy * cy) / 2   # numpy einsum's order: to the bit
     return out
 
 
@@ -66,45 +79,59 @@ def surface_samples(vertices: np.ndarray, faces: np.ndarray, n: int, rng: np.ran
     face, its slot (of n) and its rank come from a hash of (face, number), not from a running
     draw; each slot keeps its best ranked candidate (a slot left empty, e^-OVERSAMPLE of
     them, repeats its neighbour's). A moved vertex changes a count only where it carries the
-    count across an integer, and that moves one slot. Memory holds one chunk of CHUNK_FACES
-    faces' triangles at a time, whatever the face count (and 8 bytes a face for the areas).
+    count across an integer, and that moves one slot. Compiled: one pass over the faces,
+    whose memory beside the mesh is 8 bytes a face (the areas), whatever the face count.
     """
-    vertices, faces = np.asarray(vertices, dtype=np.float64), np.asarray(faces)
+    vertices = np.ascontiguousarray(vertices, dtype=np.float64).reshape(-1, 3)
+    faces = np.ascontiguousarray(faces, dtype=np.int64).reshape(-1, 3)
     if not 0 < n < 1 << (_ID_BITS - 4):
         raise ValueError(f"surface_samples: n={n} must be in 1..{(1 << (_ID_BITS - 4)) - 1}")
-    area = face_areas(vertices, faces) if len(faces) else np.zeros(0)
+    area = face_areas(vertices, faces)
     total = area.sum()
     if not total > 0:
         raise ValueError("mesh has no surface area to sample")
-    salt = _mix(np.asarray(rng.integers(1 << 62, size=5), dtype=np.uint64))
-    empty = np.iinfo(np.uint64).max
-    best_rank, best_id = np.full(n, empty, dtype=np.uint64), np.zeros(n, dtype=np.uint64)
-    for start in range(0, len(faces), CHUNK_FACES):
-        ids = _candidates(area[start:start + CHUNK_FACES], start, OVERSAMPLE * n / total, salt[0])
-        slot = (_mix(ids ^ salt[1]) % np.uint64(n)).astype(np.int64)
-        rank = _mix(ids ^ salt[2]) >> np.uint64(1)    # below `empty`
-        np.minimum.at(best_rank, slot, rank)
-        won = rank == best_rank[slot]
-        best_id[slot[won]] = ids[won]
-    kept = np.flatnonzero(best_rank != empty)
+    salt = np.array([_mix(np.uint64(s)) for s in rng.integers(1 << 62, size=5)], dtype=np.uint64)
+    best_rank, best_id = _slots(area, OVERSAMPLE * n / total, salt, n)
+    kept = np.flatnonzero(best_rank != _EMPTY)
     if not len(kept):
         raise ValueError("mesh has no surface area to sample")
     ids = best_id[kept[np.searchsorted(kept, np.arange(n)) % len(kept)]]
-    u, v = _unit(_mix(ids ^ salt[3])), _unit(_mix(ids ^ salt[4]))
-    flip = u + v > 1
-    u[flip], v[flip] = 1 - u[flip], 1 - v[flip]
-    tri = vertices[faces[(ids >> np.uint64(_ID_BITS)).astype(np.int64)]]   # n triangles
-    return tri[:, 0] + u[:, None] * (tri[:, 1] - tri[:, 0]) + v[:, None] * (tri[:, 2] - tri[:, 0])
+    return _points_on_faces(vertices, faces, ids, salt)
 
 
-def _candidates(area: np.ndarray, start: int, density: float, salt: np.uint64) -> np.ndarray:
-    """The ids (face << _ID_BITS | number) of floor(density * area + r_f) candidate points
-    on each face of a chunk that starts at face `start` (r_f in [0, 1), a hash of the face)."""
-    face = np.arange(start, start + len(area), dtype=np.uint64)
-    count = np.floor(area * density + _unit(_mix(face ^ salt))).astype(np.int64)
-    face = np.repeat(face, count)
-    number = np.arange(len(face)) - np.repeat(np.cumsum(count) - count, count)
-    return (face << np.uint64(_ID_BITS)) | number.astype(np.uint64)
+_EMPTY = np.uint64(np.iinfo(np.uint64).max)
+
+
+@numba.njit(cache=True, nogil=True)
+def _slots(area, density, salt, n):
+    """(rank, id) of the best ranked candidate in each of the n slots (rank _EMPTY: none).
+    Face f's candidates are ids f << _ID_BITS | k, k < floor(density * area + r_f)."""
+    best_rank, best_id = np.full(n, _EMPTY, np.uint64), np.zeros(n, np.uint64)
+    for f in range(len(area)):
+        face = np.uint64(f)
+        count = int(math.floor(area[f] * density + _unit(_mix(face ^ salt[0]))))
+        for k in range(count):
+            ident = (face << np.uint64(_ID_BITS)) | np.uint64(k)
+            slot = _mix(ident ^ salt[1]) % np.uint64(n)
+            rank = _mix(ident ^ salt[2]) >> np.uint64(1)    # below _EMPTY
+            if rank <= best_rank[slot]:
+                best_rank[slot], best_id[slot] = rank, ident
+    return best_rank, best_id
+
+
+@numba.njit(cache=True, nogil=True)
+def _points_on_faces(vertices, faces, ids, salt):
+    """The point of each candidate id: uniform in its face, from a hash of the id."""
+    out = np.empty((len(ids), 3))
+    for i in range(len(ids)):
+        u, v = _unit(_mix(ids[i] ^ salt[3])), _unit(_mix(ids[i] ^ salt[4]))
+        if u + v > 1:
+            u, v = 1 - u, 1 - v
+        face = faces[np.int64(ids[i] >> np.uint64(_ID_BITS))]
+        p, q, r = vertices[face[0]], vertices[face[1]], vertices[face[2]]
+        for a in range(3):
+            out[i, a] = p[a] + u * (q[a] - p[a]) + v * (r[a] - p[a])
+    return out
 
 
 def sample_surface(mesh: trimesh.Trimesh, n: int, rng: np.random.Generator) -> np.ndarray:

@@ -381,20 +381,20 @@ def finish_search(recipe, draw, opening: Opening, budget: int, seed: int,
     evaluate, (x,) = objective(recipe, draw, [(space, cams)], curve)
     f = opening.score
 
-    def one(x: np.ndarray) -> float:
-        return evaluate([(0, x)])[0]
+    def batch(xs: Sequence[np.ndarray]) -> list[float]:
+        return evaluate([(0, x) for x in xs])
 
     def switches(x: np.ndarray, f: float) -> tuple[np.ndarray, float]:
-        return sweep_discrete(one, space, x, f, budget - len(curve))
+        return sweep_discrete(batch, space, x, f, budget - len(curve))
 
     for step in STEPS:
         if switches_first:
             x, f = switches(x, f)
-        x, f = sweep_continuous(one, space, x, f, budget - len(curve), step, extra=6)
+        x, f = sweep_continuous(batch, space, x, f, budget - len(curve), step, extra=6)
         if not switches_first:
             x, f = switches(x, f)
     stds = np.concatenate([np.full(len(x) - 6, SIGMA), CAMERA_SIGMA])
-    y, g = cma_search(lambda xs: evaluate([(0, x) for x in xs]), x, budget - len(curve), seed, stds)
+    y, g = cma_search(batch, x, budget - len(curve), seed, stds)
     best, best_x = (g, y) if g < f else (f, x)
     n = len(best_x) - 6
     values, view = space.values(best_x[:n]), cams.view(best_x[n:])
