@@ -21,7 +21,8 @@ def geocode(*args: str) -> subprocess.CompletedProcess:
 
 
 def test_importing_the_package_and_cli_pulls_in_neither_blender_nor_torch():
-    code = "import sys, geocode, geocode.cli, geocode.config; print(sorted(m for m in ('bpy', 'torch') if m in sys.modules))"
+    code = ("import sys, geocode, geocode.cli, geocode.config; "
+            "print(sorted(m for m in ('bpy', 'torch') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "[]"
 
@@ -100,7 +101,8 @@ def test_bench_epoch_refuses_an_unknown_device_in_one_line():
     ["shape", "chair", "-o", "{tmp}/c.obj", "--png", "/proc/x.png"],
     ["reconstruct", "vase", "{tmp}/x.obj", "-o", "{tmp}/out", "--budget", "1000000"],
 ])
-def test_an_out_of_bound_size_or_unwritable_output_is_refused_before_blender_starts(args, tmp_path, monkeypatch, capsys):
+def test_an_out_of_bound_size_or_unwritable_output_is_refused_before_blender_starts(args, tmp_path, monkeypatch,
+                                                                                   capsys):
     def started():
         raise AssertionError("Blender started for a refused command")
     monkeypatch.setattr("geocode.cli.import_blender", started)

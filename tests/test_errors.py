@@ -150,7 +150,7 @@ USAGE_CASES = {
 OUTPUT_CASES = {
     "blend is a folder": (["program", "build", "vase", "-o", "{tmp}"], ["is a folder"]),
     "blend under a file": (["program", "build", "vase", "-o", "{tmp}/file.txt/x.blend"], ["file.txt is a file"]),
-    "manifest is a folder": (["program", "build", "vase", "-o", "{tmp}/x.blend", "--manifest", "{tmp}"], ["is a folder"]),
+    "manifest is a folder": (["program", "build", "vase", "-o", "{tmp}/x.blend", "--manifest", "{tmp}"], ["is a folder"]),  # noqa: E501  (a table row)
     "shape is a folder": (["shape", "vase", "-o", "{tmp}"], ["is a folder"]),
     "shape png is a folder": (["shape", "vase", "-o", "{tmp}/x.obj", "--png", "{tmp}"], ["--png", "is a folder"]),
     "gallery is a folder": (["gallery", "vase", "-o", "{tmp}"], ["is a folder"]),
@@ -173,7 +173,7 @@ OUTPUT_CASES = {
                                ["/proc/seq", "cannot be written"]),
     "interpolate into a file": (["interpolate", "vase", "{tmp}/a.yaml", "{tmp}/b.yaml", "-o", "{tmp}/file.txt"],
                                 ["is a file"]),
-    "reconstruct into /sys": (["reconstruct", "vase", "{tmp}/x.obj", "-o", "/sys/out"], ["/sys/out", "cannot be written"]),
+    "reconstruct into /sys": (["reconstruct", "vase", "{tmp}/x.obj", "-o", "/sys/out"], ["/sys/out", "cannot be written"]),  # noqa: E501  (a table row)
     "reconstruct under a file": (["reconstruct", "vase", "{tmp}/x.obj", "-o", "{tmp}/file.txt/out"],
                                  ["file.txt is a file"]),
     "addon under /proc": (["addon", "build", "-o", "/proc/a.zip"], ["/proc/a.zip"]),
@@ -196,7 +196,7 @@ STEP_CASES = {
                                  ["export-0.txt", "missing", "export step"], absent=["data/vase/train/points"]),
     "points of a NaN mesh": Case(["points", "--split", "train", "--shard", "0", *DATA],
                                  ["train-000000.obj", "NaN", "rerun the export step"], setup="nan_mesh",
-                                 absent=["data/vase/train/points/train-000000.npz", "data/vase/train/done/points-0.txt"]),
+                                 absent=["data/vase/train/points/train-000000.npz", "data/vase/train/done/points-0.txt"]),  # noqa: E501  (a table row)
     "points of an empty mesh": Case(["points", "--split", "train", "--shard", "0", *DATA],
                                     ["train-000000.obj", "rerun the export step"], setup="empty_mesh",
                                     absent=["data/vase/train/points/train-000000.npz"]),
@@ -224,11 +224,11 @@ STEP_CASES = {
                                          ["zero.ckpt", "not a readable checkpoint"], setup="bad_files",
                                          absent=["p.parquet"]),
     "predict text checkpoint": Case(["predict", "--checkpoint", "{tmp}/text.ckpt", "-o", "{tmp}/p.parquet", *DATA],
-                                    ["text.ckpt", "not a readable checkpoint"], setup="bad_files", absent=["p.parquet"]),
+                                    ["text.ckpt", "not a readable checkpoint"], setup="bad_files", absent=["p.parquet"]),  # noqa: E501  (a table row)
     "predict foreign checkpoint": Case(["predict", "--checkpoint", "{tmp}/dict.ckpt", "-o", "{tmp}/p.parquet", *DATA],
                                        ["dict.ckpt", "not a geocode model checkpoint"], setup="bad_files",
                                        absent=["p.parquet"]),
-    "predict on another class grid": Case(["predict", "--checkpoint", "{tmp}/other.ckpt", "-o", "{tmp}/p.parquet", *DATA],
+    "predict on another class grid": Case(["predict", "--checkpoint", "{tmp}/other.ckpt", "-o", "{tmp}/p.parquet", *DATA],  # noqa: E501  (a table row)
                                           ["other.ckpt", "trained on another recipe"], setup="other_grid",
                                           absent=["p.parquet"]),
     "predict on other class counts": Case(["predict", "--checkpoint", "{tmp}/old.ckpt", "-o", "{tmp}/p.parquet", *DATA],
@@ -236,7 +236,7 @@ STEP_CASES = {
                                           absent=["p.parquet"]),
     "rebuild without predictions": Case(["rebuild", "--predictions", "{tmp}/none.parquet", "--shard", "0", *DATA],
                                         ["none.parquet", "file not found", "predict step"], absent=["rebuilt"]),
-    "metrics of a broken parquet": Case(["metrics", "--predictions", "{tmp}/zero.parquet", "-o", "{tmp}/m.parquet", *DATA],
+    "metrics of a broken parquet": Case(["metrics", "--predictions", "{tmp}/zero.parquet", "-o", "{tmp}/m.parquet", *DATA],  # noqa: E501  (a table row)
                                         ["zero.parquet", "not a readable parquet"], setup="bad_files",
                                         absent=["m.parquet"]),
     "rebuild of a foreign parquet": Case(["rebuild", "--predictions", "{tmp}/metrics.parquet", "--shard", "0", *DATA],

@@ -155,7 +155,7 @@ BAD = [
     ("broken.npy", lambda p: p.write_bytes(b"not numpy"), "not a readable .npy"),
     ("words.xyz", lambda p: p.write_text("just\nwords\n"), "no line of x y z numbers"),
     ("flat.npy", lambda p: np.save(p, np.zeros((200, 2))), "expected N x 3"),
-    ("nan.xyz", lambda p: p.write_text("".join(f"{i} {i} {i}\n" for i in range(200)) + "nan 0 0\n"), "1 points have NaN"),
+    ("nan.xyz", lambda p: p.write_text("".join(f"{i} {i} {i}\n" for i in range(200)) + "nan 0 0\n"), "1 points have NaN"),  # noqa: E501  (a table row)
     ("few.xyz", lambda p: p.write_text("".join(f"{i} 0 {i % 7}\n" for i in range(50))), "give at least 100"),
     ("same.xyz", lambda p: p.write_text("1 2 3\n" * 200), "all points coincide"),
     ("line.stl", zero_area_stl, "no surface area"),

@@ -43,8 +43,8 @@ def test_no_records_is_one_line(tmp_path, capsys):
 
 
 def test_the_profile_is_chosen_by_an_override_as_everywhere_else(tmp_path, capsys):
-    record(tmp_path, "data/mini/vase/train/done/export-0.txt", "export", 100, 160, "logs/data/mini/export/vase-train-0.log")
-    record(tmp_path, "data/smoke/vase/train/done/export-0.txt", "export", 0, 9, "logs/data/smoke/export/vase-train-0.log", 2)
+    record(tmp_path, "data/mini/vase/train/done/export-0.txt", "export", 100, 160, "logs/data/mini/export/vase-train-0.log")  # noqa: E501  (a table row)
+    record(tmp_path, "data/smoke/vase/train/done/export-0.txt", "export", 0, 9, "logs/data/smoke/export/vase-train-0.log", 2)  # noqa: E501  (a table row)
     assert main(["timings", "profile=smoke", "--metadata", str(tmp_path), "--json"]) == 0
     smoke = capsys.readouterr()
     assert json.loads(smoke.out)["jobs"] == 1 and json.loads(smoke.out)["minutes"]["export"]["vase"] == 0.15

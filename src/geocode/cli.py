@@ -215,7 +215,8 @@ def parser() -> argparse.ArgumentParser:
                 "geocode reconstruct vase drawings/ -o out/ --budget 2000 --candidates 3 -j 2")
     c.add_argument("domain", choices=domains)
     c.add_argument("input", type=Path, help="a file or a folder of them: mesh (.obj .ply .stl .off .glb "
-                                            ".gltf), cloud (.xyz .txt .pts .csv .npy .npz, .ply) or drawing (.png .jpg)")
+                                            ".gltf), cloud (.xyz .txt .pts .csv .npy .npz, .ply) or drawing "
+                                            "(.png .jpg)")
     c.add_argument("-o", "--output", required=True, type=output_folder,
                    help="folder for <input>.yaml|obj|in-place.obj|png|blend, index.html and summary.csv; an "
                         "input keeps its suffix in its names (scan.obj -> scan-obj.*) where they would be another "
@@ -287,7 +288,8 @@ def parser() -> argparse.ArgumentParser:
            f"geocode {name} --split train --shard 0 domain=vase profile=smoke")
           for name, fn in (("export", cmd_export), ("sketch", cmd_sketch), ("points", cmd_points))),
         ("train", "train a model", cmd_train,
-         ((("-o", "--output"), dict(type=output_folder, help="run folder (default: <paths.runs>/<domain>/<variant>)")),),
+         ((("-o", "--output"),
+           dict(type=output_folder, help="run folder (default: <paths.runs>/<domain>/<variant>)")),),
          "geocode train domain=chair model=separate -o runs/exp/chair-separate"),
         ("simplify", "decimate the test meshes into split test-s<factor>", cmd_simplify,
          ((("--factor",), dict(required=True, type=at_least(1), help="one of eval.simplify")),),

@@ -69,6 +69,11 @@ Fraction = number(0, 1)
 Shapes = optional(whole(1))
 
 
+def per_domain(value, expect: str):
+    """null or a mapping {<domain>: value}."""
+    return Annotated[dict[Name, value] | None, Expect(f"null or a mapping {{<domain>: {expect}}}")]
+
+
 def key(meaning: str, **kwargs):
     """A settings key: its meaning (shown by `geocode config --keys`); no default unless given."""
     return Field(description=meaning, **kwargs)
@@ -171,7 +176,8 @@ class Model(Group):
     k: whole(1) = key("DGCNN neighbours per point")
     edge_channels: each(whole(1)) = key("channels of the EdgeConv layers")
     point_channels: whole(1) = key("DGCNN head width (embedding = 2 x this)")
-    sketch_channels: Annotated[list[whole(1) | Literal["M"]], Expect("a list of whole numbers >= 1 and M (2x2 max-pool)")] = key(
+    sketch_channels: Annotated[list[whole(1) | Literal["M"]],
+                               Expect("a list of whole numbers >= 1 and M (2x2 max-pool)")] = key(
         "reduced VGG11 layers")
     sketch_pool: whole(1) = key("adaptive average pooling grid before the sketch encoder's linear layer")
     hidden: each(whole(1)) = key("widths of each decoder's hidden layers")
@@ -198,7 +204,7 @@ Batches = optional(number(0, above=True))
 
 class Train(Group):
     max_epochs: whole(1) = key("training epochs")
-    domain_epochs: Annotated[dict[Name, whole(1)] | None, Expect("null or a mapping {<domain>: a whole number >= 1}")] = key(
+    domain_epochs: per_domain(whole(1), "a whole number >= 1") = key(
         "per-domain replacements of train.max_epochs, {<domain>: N}: more epochs for the domains that need them")
     batch_size: whole(1) = key("items per batch")
     lr: number(0, above=True) = key("Adam learning rate")
@@ -207,7 +213,8 @@ class Train(Group):
     schedule: one_of("step", "cosine") = key(
         "learning-rate schedule: step (StepLR, the paper's) or cosine (warmup, then cosine decay)")
     warmup_epochs: whole(0) = key("epochs of linear warmup before the cosine decay")
-    variant_epochs: Annotated[dict[Name, number(0, 1, above=True)], Expect("a mapping {<variant>: a number > 0 and <= 1}")] = key(
+    variant_epochs: Annotated[dict[Name, number(0, 1, above=True)],
+                              Expect("a mapping {<variant>: a number > 0 and <= 1}")] = key(
         "each model variant's share of max_epochs, {<variant>: share}")
     accelerator: one_of("auto", "cpu", "gpu", "cuda", "mps") = key("Lightning accelerator")
     devices: Annotated[Literal["auto"] | whole(1), Expect("auto or a whole number >= 1")] = key(
@@ -221,7 +228,8 @@ class Train(Group):
     out_dir: optional(Text) = key("run folder; null: <paths.runs>/<domain>/<model.variant>")
     eval_camera: optional(Name) = key("validation camera; null: the first training camera")
     modalities: Annotated[list[Literal["points", "sketch"]], Field(min_length=1),
-                          Expect("a list of points and/or sketch")] = key("the inputs trained on: points, sketch or both")
+                          Expect("a list of points and/or sketch")] = key(
+        "the inputs trained on: points, sketch or both")
     augment_points: PointAugment
     augment: SketchAugment
 
@@ -242,12 +250,12 @@ class Eval(Group):
     reconstruct_budget: whole(0) = key("program evaluations of the fit of `geocode reconstruct` (--budget)")
     sketch_fit_budget: whole(0) = key("program evaluations of a drawing's fit: `geocode reconstruct` on a "
                                       "drawing, `bench fit --modality sketch`, eval.fit's sketch conditions")
-    sketch_fit_domain_budget: Annotated[dict[Name, whole(0)] | None, Expect("null or a mapping {<domain>: a whole number >= 0}")] = key(
+    sketch_fit_domain_budget: per_domain(whole(0), "a whole number >= 0") = key(
         "per-domain sketch_fit_budget, {<domain>: N}, where a domain's fit gains from more (docs/wild.md)")
-    sketch_fit_branches: Annotated[dict[Name, whole(1)] | None, Expect("null or a mapping {<domain>: a whole number >= 1}")] = key(
+    sketch_fit_branches: per_domain(whole(1), "a whole number >= 1") = key(
         "per-domain searches of a drawing's fit, {<domain>: N}: one for each of the network's N likeliest options "
         "of its least sure discrete choice, the budget shared (docs/wild.md); other domains 1")
-    sketch_fit_orders: Annotated[dict[Name, Annotated[int, Field(ge=1, le=2), Expect("1 or 2")]] | None, Expect("null or a mapping {<domain>: 1 or 2}")] = key(
+    sketch_fit_orders: per_domain(Annotated[int, Field(ge=1, le=2)], "1 or 2") = key(
         "per-domain sweep orders of a drawing's fit, {<domain>: 2}: each branch searched twice, its discrete "
         "switches judged before and after the continuous sweeps (docs/wild.md); other domains 1")
     max_fit_shapes: Shapes = key("fit the predictions of eval.fit's conditions on at most this many of the "

@@ -21,7 +21,8 @@ def _train_step(model: torch.nn.Module, points: torch.Tensor):
 
 
 def surface_clouds(batch: int, n_points: int, seed: int = 0) -> torch.Tensor:
-    """Clouds as the dataset has them (docs/paper-numbers.md#dataset-generation: farthest points + random ones of a dense
+    """Clouds as the dataset has them (docs/paper-numbers.md#dataset-generation: farthest points +
+    random ones of a dense
     surface sample), of a capsule, one sample per cloud. Shapes: -> (B, N, 3)."""
     import trimesh  # only the benchmark needs meshes
 

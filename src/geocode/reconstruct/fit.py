@@ -234,7 +234,8 @@ def _align_steps(points, side, target, target_grid, turn, scale, offset, steps, 
         a, b = p[keep] - mp, q[keep] - mq
         t = math.atan2(np.sum(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]), np.sum(a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1]))
         ct, st = math.cos(t), math.sin(t)
-        turned = np.sum((ct * a[:, 0] - st * a[:, 1]) * b[:, 0] + (st * a[:, 0] + ct * a[:, 1]) * b[:, 1] + a[:, 2] * b[:, 2])
+        turned = np.sum((ct * a[:, 0] - st * a[:, 1]) * b[:, 0] + (st * a[:, 0] + ct * a[:, 1]) * b[:, 1]
+                        + a[:, 2] * b[:, 2])
         k = turned / max(np.sum(a * a), 1e-12)
         # the step: x -> k R(t) x + mq - k R(t) mp, after the pose so far
         step = np.array([mq[0] - k * (ct * mp[0] - st * mp[1]), mq[1] - k * (st * mp[0] + ct * mp[1]),
@@ -271,7 +272,8 @@ class Scorer:
         self.token = uuid.uuid4().hex     # which target the helpers' cached distance is for
 
     def __call__(self, batch: list[tuple[dict, float]]) -> list[tuple[float, Pose]]:
-        return share_out(self.pool, self.helpers, batch, lambda item: score(self.program, self.distance, self.pose, *item),
+        return share_out(self.pool, self.helpers, batch,
+                         lambda item: score(self.program, self.distance, self.pose, *item),
                          _helper_score, self.token, self.target, self.trim, self.pose)
 
 

@@ -269,9 +269,11 @@ figcaption{font-size:.8em;color:#555;margin-top:2px}
 .error{color:#a12020;font-family:ui-monospace,monospace;word-break:break-word}
 a{color:#1a5fb4}.files a{margin-right:.7em}
 details{flex-basis:100%;font-size:.92em}summary{cursor:pointer;color:#1a5fb4}
-details table{font-size:.9em;margin-top:.3em}details td{border-bottom:1px solid #f0f0f0}details td.num{padding-right:20px}
+details table{font-size:.9em;margin-top:.3em}details td{border-bottom:1px solid #f0f0f0}
+details td.num{padding-right:20px}
 .cands{flex-basis:100%;display:flex;gap:8px;flex-wrap:wrap;align-items:flex-end}
-.cands figure{width:130px}.cands figure img{width:128px;height:128px}.cands .label{font-size:.85em;color:#555;align-self:center}
+.cands figure{width:130px}.cands figure img{width:128px;height:128px}
+.cands .label{font-size:.85em;color:#555;align-self:center}
 """
 
 
@@ -340,7 +342,9 @@ def input_caption(entry: Entry) -> str:
     if entry.kind == "cloud" and entry.input is not None:
         n = len(entry.input)
         shown = min(n, CLOUD_POINTS)
-        return f"input cloud: {shown:,} of {n:,} points, as spheres" if shown < n else f"input cloud: {n:,} points, as spheres"
+        if shown < n:
+            return f"input cloud: {shown:,} of {n:,} points, as spheres"
+        return f"input cloud: {n:,} points, as spheres"
     return {"mesh": "input mesh", "drawing": "input drawing"}.get(entry.kind, "input")
 
 

@@ -139,7 +139,8 @@ def axis_features(points: np.ndarray) -> np.ndarray:
     the centre of mass (0 bottom .. 1 top) minus a half; 5 extent along the axis over the
     largest extent; 6 how far its cross-sections are from circles, relative (`_roundness`:
     vases, lamps, round tables turn about their up axis); 7 how filled the bottom slab is
-    minus the top (`_filled`: a vase's foot is a disc, its mouth a ring); 8.. the share of points in each of HEIGHT_BINS heights, bottom first,
+    minus the top (`_filled`: a vase's foot is a disc, its mouth a ring); 8.. the share of points
+    in each of HEIGHT_BINS heights, bottom first,
     minus the uniform share (where the mass lies: a table's top, a lamp's shade).
     """
     pts = np.asarray(points, dtype=np.float64)
@@ -185,8 +186,10 @@ WEIGHTS = {
     "": (1.61, -1.88, 0.53, -1.48, 0.63, 0.87, -1.78, -0.61, -0.09, -0.14, -0.47, 0.10, -0.11, -0.17, -0.14, 1.02),
     "chair": (1.03, -1.03, 2.04, 0.27, 0.14, 1.94, -2.00, -1.74, -0.15, -0.63, -0.40, 0.69, 0.86, 0.14, -0.26, -0.25),
     "vase": (0.93, -1.60, 0.48, 0.78, -0.38, -1.42, -3.09, -0.59, 1.13, -0.31, -0.49, 0.33, -0.59, -0.26, 0.08, 0.10),
-    "table": (1.68, -1.59, -0.85, -1.29, 1.41, -0.47, -0.36, 0.51, -0.79, -0.42, -0.21, -0.29, -0.29, -0.13, 0.62, 1.51),
-    "ceiling_lamp": (1.83, -1.67, -0.54, -1.10, -1.54, 0.40, -1.35, 0.32, 1.69, 1.32, 0.06, -0.43, -0.54, -0.83, -1.73, 0.45),
+    "table": (1.68, -1.59, -0.85, -1.29, 1.41, -0.47, -0.36, 0.51, -0.79, -0.42, -0.21, -0.29, -0.29, -0.13,
+              0.62, 1.51),
+    "ceiling_lamp": (1.83, -1.67, -0.54, -1.10, -1.54, 0.40, -1.35, 0.32, 1.69, 1.32, 0.06, -0.43, -0.54, -0.83,
+                     -1.73, 0.45),
     "cabinet": (1.19, -1.28, 0.02, -2.14, 1.80, 2.78, -0.05, 0.35, -1.21, -0.44, -0.81, -0.00, -0.22, 0.70, 0.76, 1.23),
 }
 
@@ -381,7 +384,8 @@ def find_pose(points: np.ndarray, up: str = "auto", domain: str | None = None, r
     `mesh` (a trimesh.Trimesh; `points` its surface samples): its vertices set centre and
     scale instead, so that it is normalised exactly as meshio.normalise_unit_sphere does
     (its samples fall a little inside its vertices' box), and its faces the level turn.
-    `squared` (the default with "auto"; `up` then one of `up_candidates`): the axis is one of the cloud squared by `square_rotation`, as the up
+    `squared` (the default with "auto"; `up` then one of `up_candidates`): the axis is one of the
+    cloud squared by `square_rotation`, as the up
     features judged it; where that squares it about another axis than `up` (a cabinet turned
     137 degrees about its z, `up` its x), the shape is squared first, so that a candidate
     other than the true up still lays the shape square on a side, as it would unturned. Only

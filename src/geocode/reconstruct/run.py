@@ -32,8 +32,10 @@ import yaml
 from PIL import Image
 from scipy import ndimage
 
-from geocode.reconstruct import pose as poses
 from geocode.errors import UserError, one_line
+from geocode.meshio import normalise_unit_sphere
+from geocode.points import network_cloud
+from geocode.reconstruct import pose as poses
 from geocode.reconstruct.fit import (
     RESTARTS,
     CloudDistance,
@@ -47,8 +49,6 @@ from geocode.reconstruct.fit import (
     shape_points,
 )
 from geocode.reconstruct.inputs import IMAGE_SUFFIXES, Geometry, open_image, read_geometry, surface_points
-from geocode.meshio import normalise_unit_sphere
-from geocode.points import network_cloud
 
 log = logging.getLogger(__name__)
 
@@ -434,11 +434,11 @@ def write_outputs(run: Reconstructor, result: Reconstruction, stem: Path, out_di
                   record=None):
     """One input's files (reserved first: all of them or none) and its page entry; with
     `record` (a `plan.Plan`), the output folder's record too, in the same transaction."""
-    from geocode.reconstruct import page
+    from geocode.blender.export import write_shape
     from geocode.blender.gallery import grid
     from geocode.meshio import obj_text
     from geocode.outputs import Outputs
-    from geocode.blender.export import write_shape
+    from geocode.reconstruct import page
 
     suffixes = [".yaml", ".obj", ".png", ".blend"] + ([".in-place.obj"] if result.frame else [])
     best = result.answers[0]
