@@ -9,5 +9,7 @@ columns and its nearest-training-shape baseline.
 - `fit`: search a program's parameters and the shape's pose against a cloud.
 - `linedraw`, `sketchfit`: line drawings and the search against a drawing's strokes.
 - `page`: the results page and `summary.csv` of a run.
+- `plan`: a run's inputs and the names of their outputs, settled before any work.
+- `workers`: a folder's inputs spread over processes.
 - `run`: the command itself, from files to written outputs.
 """
