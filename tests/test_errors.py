@@ -565,3 +565,17 @@ def toy_dataset(tmp: Path, build: Path) -> None:
 
 SETUPS = {f.__name__: f for f in (nan_mesh, empty_mesh, broken_manifest, bad_files, other_grid, other_heads,
                                   toy_dataset)}
+
+
+def test_a_stop_signal_wrapped_by_compiled_code_is_still_a_stop():
+    """numba hands a signal handler's exception back as a SystemError caused by it."""
+    from geocode.errors import Interrupted, interruption
+
+    try:
+        try:
+            raise Interrupted(signal.SIGTERM)
+        except Interrupted as stop:
+            raise SystemError("CPUDispatcher(...) returned a result with an exception set") from stop
+    except SystemError as wrapped:
+        assert interruption(wrapped).signum == signal.SIGTERM
+    assert interruption(SystemError("a real one")) is None

@@ -18,7 +18,7 @@ import sys
 import textwrap
 from pathlib import Path
 
-from geocode.errors import Interrupted, UserError, import_blender, stop_signals_raise
+from geocode.errors import Interrupted, UserError, import_blender, interruption, stop_signals_raise
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -37,6 +37,10 @@ def main(argv: list[str] | None = None) -> int:
             if os.environ.get("GEOCODE_DEBUG"):
                 raise
             return report(exc)
+        except SystemError as exc:   # a stop signal inside compiled code comes back wrapped
+            if (stop := interruption(exc)) is None or os.environ.get("GEOCODE_DEBUG"):
+                raise
+            return report(stop)
         except BrokenPipeError:  # the reader left (`geocode config --keys | head`): not an error
             os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
     return 0

@@ -45,6 +45,18 @@ def _interrupt(signum, _frame):
     raise Interrupted(signum)
 
 
+def interruption(exc: BaseException) -> Interrupted | None:
+    """The stop signal behind `exc`, if any: a signal that lands inside compiled code (numba's
+    dispatcher) comes back as a SystemError whose cause is the `Interrupted` raised here."""
+    seen = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, Interrupted):
+            return exc
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return None
+
+
 @contextmanager
 def stop_signals_raise():
     """In the block, Ctrl-C and SIGTERM (how Snakemake stops a job) raise `Interrupted`."""
