@@ -220,8 +220,11 @@ def _align_steps(points, side, target, target_grid, turn, scale, offset, steps, 
             posed[i, 0] = scale * (c * x - s * y) + offset[0]
             posed[i, 1] = scale * (s * x + c * y) + offset[1]
             posed[i, 2] = scale * points[i, 2] + offset[2]
-        d_to, i_to = nearest(*target_grid, posed)
-        d_from, i_from = nearest(*bucket(posed, side), target)
+        grid = bucket(posed, side)      # each cloud asked in its cells' order (sooner), answered in its own
+        d_to, i_to = np.empty(n), np.empty(n, np.int64)
+        d_to[grid[4]], i_to[grid[4]] = nearest(*target_grid, grid[5])
+        d_from, i_from = np.empty(m), np.empty(m, np.int64)
+        d_from[target_grid[4]], i_from[target_grid[4]] = nearest(*grid, target_grid[5])
         p[:n], q[:n], d[:n] = posed, target[i_to], d_to
         p[n:], q[n:], d[n:] = posed[i_from], target, d_from
         keep = d <= (np.quantile(d, 1.0 - trim) if trim > 0 else np.inf)
