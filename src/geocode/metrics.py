@@ -34,9 +34,14 @@ class Cells:
 
     @property
     def points(self) -> np.ndarray:
-        """The cloud's points in cell order: queries in this order find their nearest points
-        soonest (each search starts from the last one's nearest)."""
+        """The cloud's points in cell order (`order`): queries in this order find their
+        nearest points soonest (each search starts from the last one's nearest)."""
         return self.grid[5]
+
+    @property
+    def order(self) -> np.ndarray:
+        """The index in the cloud of each point of `points`."""
+        return self.grid[4]
 
     def query(self, queries: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(distance, index) of the nearest point to each query: (M,) float64, (M,) int64."""

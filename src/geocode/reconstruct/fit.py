@@ -39,12 +39,11 @@ from geocode.points import surface_samples
 from geocode.reconstruct.pose import turn_z
 
 FIT_POINTS = 2048    # points sampled on each candidate (fixed seed: a deterministic objective)
-DISTANCE_POINTS = 2048   # points of the target (a seeded choice) that the distance compares with
 SIGMA = 0.15         # CMA-ES's initial step, in units of each coordinate's range
 TRIM = 0.02          # share of each direction's largest distances the fit ignores
 RESTARTS = 2         # CMA-ES runs, from the best starts
 ALIGN_STEPS = 3      # closed-form pose steps per evaluation (`align`) ...
-ALIGN_POINTS = 512   # ... each pairing this many points of either cloud (a pose of five numbers
+ALIGN_POINTS = 1024  # ... each pairing this many points of either cloud (a pose of five numbers
                      # needs few; the distance it returns uses them all)
 MAX_TURN = math.pi / 6   # how far `align` may turn a shape from its start's turn
 SCALE_RANGE = 1.3        # ... and scale it (a factor in [1/1.3, 1.3])
@@ -119,34 +118,31 @@ def trimmed_mean(squared: np.ndarray, trim: float) -> float:
 
 
 class CloudDistance:
-    """A Chamfer distance from a shape's points to one fixed target cloud, built once: a
-    seeded choice of DISTANCE_POINTS of the target's points, their cells (`metrics.Cells`),
-    and `align`'s coarse subset of ALIGN_POINTS of them. The candidates of fits to program
-    shapes (four a domain: posed, one side missing, noisy) rank by it as by the distance to
-    4096 points after `align` on 1024 (Spearman 0.91-0.99, median 0.97-0.99 per domain), where
-    1024 points or `align` on 256 fall to 0.59-0.71 on some fits.
+    """A Chamfer distance from a shape's points to one fixed target cloud, built once: the
+    target's cells (`metrics.Cells`) and `align`'s coarse subset with its own. The nearest
+    neighbours are those of scipy's tree, to the bit, and summed in the same order: the
+    same distances as a tree built afresh for every shape.
 
-    `trim` = 0 is the plain symmetric Chamfer distance of `geocode.metrics.chamfer` to those
-    points. With `trim` > 0 each direction ignores its largest `trim` share of squared
-    distances: target points far from every shape point (outliers, clutter, a neighbouring
-    object) no longer pull the shape, and neither do the shape's points where the scan has no
-    surface (a missing underside or back), as long as they are under that share of the shape.
+    `trim` = 0 is the plain symmetric Chamfer distance of `geocode.metrics.chamfer`. With
+    `trim` > 0 each direction ignores its largest `trim` share of squared distances: target
+    points far from every shape point (outliers, clutter, a neighbouring object) no longer
+    pull the shape, and neither do the shape's points where the scan has no surface (a
+    missing underside or back), as long as they are under that share of the shape.
     """
 
     def __init__(self, target: np.ndarray, trim: float = TRIM):
-        target = np.asarray(target, dtype=np.float64)
-        # a seeded choice: a cloud's points may come in the file's order
-        chosen = target[np.random.default_rng(0).permutation(len(target))[:DISTANCE_POINTS]]
-        self.cells = Cells(chosen)
-        self.target = self.cells.points                          # (in cell order: queries go sooner)
-        self.coarse = Cells(chosen[:ALIGN_POINTS]).points        # what `align` pairs ...
-        self.coarse_cells = Cells(self.coarse)                   # ... its indices name rows of `coarse`
+        self.target = np.asarray(target, dtype=np.float64)
+        self.cells = Cells(self.target)
+        self.coarse = self.target[:ALIGN_POINTS]       # what `align` pairs (random order)
+        self.coarse_cells = Cells(self.coarse)
         self.trim = trim
 
     def __call__(self, points: np.ndarray) -> float:
         shape = Cells(points)
-        to_target = self.cells.query(shape.points)[0] ** 2
-        to_shape = shape.query(self.target)[0] ** 2
+        to_target, to_shape = np.empty(len(shape.order)), np.empty(len(self.target))
+        # each cloud's points asked in cell order (sooner), the answers kept in its own
+        to_target[shape.order] = self.cells.query(shape.points)[0] ** 2
+        to_shape[self.cells.order] = shape.query(self.cells.points)[0] ** 2
         if self.trim == 0:
             return float((np.mean(to_target) + np.mean(to_shape)) / 2)
         return (trimmed_mean(to_target, self.trim) + trimmed_mean(to_shape, self.trim)) / 2
@@ -222,10 +218,12 @@ def _align_steps(points, side, target, target_grid, turn, scale, offset, steps, 
             posed[i, 0] = scale * (c * x - s * y) + offset[0]
             posed[i, 1] = scale * (s * x + c * y) + offset[1]
             posed[i, 2] = scale * points[i, 2] + offset[2]
-        grid = bucket(posed, side)
-        d_to, i_to = nearest(*target_grid, grid[5])    # (the posed points in cell order: sooner)
-        d_from, i_from = nearest(*grid, target)
-        p[:n], q[:n], d[:n] = grid[5], target[i_to], d_to
+        grid = bucket(posed, side)      # each cloud asked in its cells' order (sooner), answered in its own
+        d_to, i_to = np.empty(n), np.empty(n, np.int64)
+        d_to[grid[4]], i_to[grid[4]] = nearest(*target_grid, grid[5])
+        d_from, i_from = np.empty(m), np.empty(m, np.int64)
+        d_from[target_grid[4]], i_from[target_grid[4]] = nearest(*grid, target_grid[5])
+        p[:n], q[:n], d[:n] = posed, target[i_to], d_to
         p[n:], q[n:], d[n:] = posed[i_from], target, d_from
         keep = d <= (np.quantile(d, 1.0 - trim) if trim > 0 else np.inf)
         mp, mq = np.zeros(3), np.zeros(3)
