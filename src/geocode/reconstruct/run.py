@@ -362,8 +362,10 @@ def reconstruct(cfg, domain: str, input_path: Path, out_dir: Path, checkpoint: P
     settings = {"domain": domain, "checkpoint": checkpoint, "refine": refine, "up": up, "candidates": candidates}
     workers = default_workers() if workers is None else workers
     processes = min(workers, len(plan.jobs))
-    outcomes = (spread(cfg, settings, plan, processes, workers // processes) if processes > 1
-                else in_process(cfg, settings, plan, workers))
+    if processes > 1:
+        outcomes = spread(cfg, settings, plan, processes, workers // processes, Reconstructor, reconstruct_file)
+    else:
+        outcomes = in_process(cfg, settings, plan, workers)
     many = len(plan.jobs) > 1
     progress = Progress(f"reconstruct {domain}", len(plan.jobs), log, every=0.0 if many else 1e9)
     entries, summaries = [], []

@@ -23,20 +23,22 @@ from geocode.errors import STOP_SIGNALS, Interrupted
 _WORKER: dict = {}   # in a worker process: its Reconstructor (or the error of its set-up) and its state
 
 
-def spread(cfg, settings: dict, plan, processes: int, fit_workers: int):
+def spread(cfg, settings: dict, plan, processes: int, fit_workers: int, make, work):
     """(page entry, summary) of each of the plan's inputs, in order, reconstructed by
-    `processes` worker processes, each fit with `fit_workers` processes (itself included)."""
+    `processes` worker processes, each fit with `fit_workers` processes (itself included):
+    each worker builds `make(cfg, **settings, workers=fit_workers)` (`run.Reconstructor`) once
+    and runs `work(that, job, out_dir)` (`run.reconstruct_file`) for each of its files."""
     from concurrent.futures import ProcessPoolExecutor
     from multiprocessing import get_context
 
     threads = max(1, len(os.sched_getaffinity(0)) // processes)
     pool = ProcessPoolExecutor(processes, mp_context=get_context("spawn"), initializer=_start,
-                               initargs=(cfg, settings, fit_workers, threads, logging.getLogger().level))
+                               initargs=(cfg, settings, fit_workers, threads, logging.getLogger().level, make))
     try:
         for ready in [pool.submit(_ready) for _ in range(processes)]:   # every worker starts now
             ready.result()               # the set-up's errors, before the record or any file
         plan.write_record()
-        futures = [pool.submit(_reconstruct, job, plan.out_dir) for job in plan.jobs]
+        futures = [pool.submit(_reconstruct, work, job, plan.out_dir) for job in plan.jobs]
         for future in futures:
             yield future.result()
     except BaseException:                # an error, Ctrl-C, or the caller done early
@@ -58,11 +60,10 @@ def stop(pool) -> None:
 
 # -- in a worker process ------------------------------------------------------------------------
 
-def _start(cfg, settings: dict, fit_workers: int, threads: int, level: int) -> None:
+def _start(cfg, settings: dict, fit_workers: int, threads: int, level: int, make) -> None:
     import torch
 
     from geocode.errors import import_blender
-    from geocode.reconstruct.run import Reconstructor
 
     for sig in STOP_SIGNALS:
         signal.signal(sig, _on_signal)
@@ -73,7 +74,7 @@ def _start(cfg, settings: dict, fit_workers: int, threads: int, level: int) -> N
     sys.path[:] = [p for p in sys.path if not (Path(p) / "bpy" / "__init__.py").exists()]
     try:
         import_blender()
-        _WORKER["run"] = Reconstructor(cfg, **settings, workers=fit_workers)
+        _WORKER["run"] = make(cfg, **settings, workers=fit_workers)
     except Exception as exc:     # said by the first task, in the main process
         _WORKER["error"] = exc
 
@@ -103,13 +104,11 @@ def _ready() -> bool:
     return True
 
 
-def _reconstruct(job, out_dir: Path):
-    from geocode.reconstruct.run import reconstruct_file
-
+def _reconstruct(work, job, out_dir: Path):
     _ready()
     _WORKER["state"] = "busy"
     try:
-        return reconstruct_file(_WORKER["run"], job, out_dir)
+        return work(_WORKER["run"], job, out_dir)
     except Interrupted as stopped:
         _end(stopped.signum)     # its files are removed; the main process stops the run
     finally:
