@@ -8,7 +8,7 @@ tried), centred and scaled to the unit sphere, and sampled as the dataset's clou
 network then sees it at TURNS turns about its up axis in one batch (the front of a real shape
 is anyone's guess), and its answer at the turn nearest the input is corrected by its own
 feedback (`fit.cloud_feedback`); the nearest of those rounds is the network's answer (all of
-`--refine 0`). Its answers, its feedback rounds and the nearest training shapes are the
+`--budget 0`). Its answers, its feedback rounds and the nearest training shapes are the
 starts of `geocode.reconstruct.fit`, which scores every start and searches the program's parameters and
 the shape's pose from the best.
 A drawing of any size and stroke width is cropped to its strokes, scaled to the sketches'
@@ -189,7 +189,7 @@ class Reconstructor:
         return result
 
     def drawing(self, path: Path) -> Reconstruction:
-        """The network's answer to a drawing, then (unless --refine 0) `sketchfit`'s search of
+        """The network's answer to a drawing, then (unless --budget 0) `sketchfit`'s search of
         the parameters and the camera; both scored by Freestyle's drawing of them."""
         from geocode.checkpoints import ranked_prediction, reader
         from geocode.config import sketch_fit_budget, sketch_fit_searches

@@ -45,7 +45,7 @@ answer should stand (on chair test sketches it took the fitted Chamfer distance 
 about 0.5x of the network's). The best shape seen is the answer, so the fit never ends farther
 from the drawing than the start it searched from.
 Branches, measured on 30 test sketches of the trained cameras (`geocode bench fit <domain>
---modality sketch --n 30`, 800 evaluations), the fitted Chamfer distance against the network's:
+--modality sketch -n 30 --split test`, 800 evaluations), the fitted Chamfer distance against the network's:
 three branches took the chair from 0.48x to 0.38x and the cabinet from 0.42x to 0.39x; the
 table from 0.43x to 0.55x and the lamp from 0.15x to 0.22x, whose searches need the whole
 budget; the vase from 0.82x to 0.67x (with today's model 0.59x to 0.55x; docs/wild.md, Drawings),
