@@ -321,6 +321,11 @@ def parser() -> argparse.ArgumentParser:
                 "with its meaning")
     c.add_argument("--keys", action="store_true", help="list the groups, and every key with its value and meaning")
     c.set_defaults(run=cmd_config)
+    c = command(sub, "reference", "write the reference pages: every command's --help and every config key",
+                "geocode reference -o docs/reference")
+    c.add_argument("-o", "--output", type=output_folder, default=Path("docs/reference"),
+                   help="folder for commands.md and config.md (default docs/reference)")
+    c.set_defaults(run=cmd_reference)
 
     for c in [*sub.choices.values(), *benchmarks.choices.values()]:
         if c.get_default("run") in OVERRIDES:
@@ -649,6 +654,12 @@ def cmd_config(args):
 
     cfg = step_config(args)
     return describe_keys(cfg) if args.keys else OmegaConf.to_yaml(cfg, resolve=True)
+
+
+def cmd_reference(args):
+    from geocode.tools.reference import write_reference
+
+    return "wrote " + ", ".join(str(path) for path in write_reference(parser(), args.output))
 
 
 def cmd_sample(args):

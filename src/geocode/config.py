@@ -135,19 +135,32 @@ def group_options(group: str) -> list[str]:
     return sorted(p.stem for p in (repo_root() / "conf" / group).glob("*.yaml"))
 
 
+def config_groups() -> dict[str, list[str]]:
+    """Each config group (`conf/<group>/`, and `domain` from the registry) with its choices."""
+    groups = {p.name: group_options(p.name) for p in (repo_root() / "conf").iterdir() if p.is_dir()}
+    groups["domain"] = registry()
+    return dict(sorted(groups.items()))
+
+
+def key_rows(cfg: DictConfig) -> list[tuple[str, str, str, str]]:
+    """(key, its value in `cfg` as JSON text, meaning, valid values) for every key of the
+    settings models, in their order."""
+    rows = []
+    for key, (meaning, valid) in documented_keys().items():
+        value = OmegaConf.select(cfg, key)
+        shown = json.dumps(OmegaConf.to_container(value) if isinstance(value, ListConfig | DictConfig) else value)
+        rows.append((key, shown.strip(chr(34)), meaning, valid))
+    return rows
+
+
 def describe_keys(cfg: DictConfig) -> str:
     """`geocode config --keys`: the groups with their choices, then every key of the settings
     models with its value in `cfg` (the defaults, or with the overrides given), its meaning
     and its valid values."""
-    groups = {p.name: group_options(p.name) for p in (repo_root() / "conf").iterdir() if p.is_dir()}
-    groups["domain"] = registry()
     lines = ["groups (choose with <group>=<choice>):"]
-    lines += [f"  {g:<10} {', '.join(options)}" for g, options in sorted(groups.items())]
+    lines += [f"  {g:<10} {', '.join(options)}" for g, options in config_groups().items()]
     lines.append("keys (set with key=value):")
-    for key, (meaning, valid) in documented_keys().items():
-        value = OmegaConf.select(cfg, key)
-        shown = json.dumps(OmegaConf.to_container(value) if isinstance(value, ListConfig | DictConfig) else value)
-        lines.append(f"  {key:<26} {shown.strip(chr(34)):<10} {meaning}; {valid}")
+    lines += [f"  {key:<26} {shown:<10} {meaning}; {valid}" for key, shown, meaning, valid in key_rows(cfg)]
     return "\n".join(lines)
 
 
