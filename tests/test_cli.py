@@ -202,7 +202,7 @@ def test_the_benchmarks_that_read_a_run_measure_the_validation_split_unless_told
 
 # -- every command line of the docs parses ----------------------------------------------------
 
-DOCS = [repo_root() / "README.md", *sorted((repo_root() / "docs").glob("*.md"))]
+DOCS = [repo_root() / "README.md", *sorted((repo_root() / "docs").rglob("*.md"))]
 SHOWN = re.compile(r"^(?:\.venv/bin/)?geocode\s")
 # What the docs write for a user's own names: <domain> a domain, any other <...> a name of a
 # file or folder; an optional [--option value] is given; "..." ends what is checked, and a line
@@ -272,7 +272,8 @@ def test_every_command_line_in_the_readme_and_docs_parses(tmp_path, monkeypatch,
             try:
                 parse(words)
             except UserError as exc:
-                failed.append(f"{doc.name}: {shown}: {exc}")
+                failed.append(f"{doc.relative_to(repo_root())}: {shown}: {exc}")
             if "is now" in (notice := capsys.readouterr().err):     # an old spelling
-                failed.append(f"{doc.name}: {shown}: {notice.strip()}")
+                failed.append(f"{doc.relative_to(repo_root())}: {shown}: {notice.strip()}")
+    assert {doc.parent.name for doc in DOCS} >= {"guide", "reference"}   # the subfolders are read
     assert checked >= 20 and not failed, "\n".join(failed)

@@ -1,4 +1,4 @@
-"""The stool of docs/authoring.md is a real program: it builds, its recipe loads, every
+"""The stool of docs/guide/programs.md is a real program: it builds, its recipe loads, every
 shape is valid and its tree is laid out in groups, and it renders."""
 
 from pathlib import Path
