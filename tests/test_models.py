@@ -338,7 +338,7 @@ def test_shared_decoders_keep_the_statistics_of_both_modalities_together(variant
     their running average for evaluation. A decoder shared by both modalities must see them
     in one batch: called once per modality, it would keep a blend of two statistics that
     training never normalised with, and eval-mode predictions would suffer (the point
-    branch stayed near the majority class on the mini profile; docs/fidelity.md)."""
+    branch stayed near the majority class on the mini profile; docs/design.md#embedding-norm)."""
     torch.manual_seed(0)
     model = GeoCodeModule(HEADS, variant=variant).train()
     seen = {}
@@ -407,7 +407,7 @@ def test_bench_epoch_counts_the_steps_of_an_epoch():
 def test_embedding_norm_gives_the_shared_decoders_each_modality_standardised():
     """A DGCNN pools rectified features and the sketch encoder ends in a linear layer: their
     embeddings differ in scale. With `embedding_norm` each modality's embedding is batch-
-    normalised on its own before the shared decoders (docs/fidelity.md)."""
+    normalised on its own before the shared decoders (docs/design.md#embedding-norm)."""
     torch.manual_seed(0)
     seen = []
     for norm in (False, True):

@@ -281,7 +281,7 @@ def test_fit_brings_a_program_shape_nearer_its_drawing(program):
     values (the discrete ones among the true and two others): the drawing distance falls
     by a quarter. (It fell by half with the first table program; the grown one's wider
     proportions and end frames put two random tables further apart than 250 evaluations
-    close: docs/wild.md, Drawings, measured.)"""
+    close: docs/design.md#drawing-fit.)"""
     recipe = program.recipe()
     rng = np.random.default_rng(5)
     truth, other = (next(v for v in iter(lambda: program.random_values(rng), None)

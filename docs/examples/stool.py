@@ -1,4 +1,4 @@
-"""The stool of docs/authoring.md (the tutorial): a round or square seat on three to five
+"""The stool of docs/guide/programs.md (the tutorial): a round or square seat on three to five
 splayed legs, with an optional ring footrest (9 parameters: 3 discrete, 6 continuous).
 
 Layout: z up, the seat centred on the z axis. Every part touches the rest for every

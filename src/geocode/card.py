@@ -18,14 +18,14 @@ USE = ("Recovers the parameters of the `{domain}` program (programs/{domain}.py)
        "or a line drawing: `geocode reconstruct {domain} <file or folder> -o out/`.")
 LIMITS = [
     "It knows only the shapes its program can make; a real object of another form comes back as "
-    "the program's nearest form (docs/wild.md).",
+    "the program's nearest form (docs/design.md#real-inputs-need-the-pose-search-and-the-fit).",
     "It was trained on synthetic shapes in the program's own frame: a real input needs the pose "
     "search and the fit of `geocode reconstruct`, and without them it does worse than simply "
     "taking the nearest training shape.",
     "A drawing is answered by the network, then fitted (`--budget`): the search draws the program "
     "and compares the strokes, so a part the network misreads and one view shows little of (a "
     "vase's handle count or foot) often stays wrong, and against a sparse free-hand doodle the "
-    "fit may add a part the doodle lacks (docs/wild.md, Drawings).",
+    "fit may add a part the doodle lacks (docs/design.md#drawing-fit).",
 ]
 
 

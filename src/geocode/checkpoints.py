@@ -149,7 +149,7 @@ def predicted_values(model, recipe, outputs: Mapping[str, torch.Tensor], modalit
     """Raw values per input from the head outputs of one modality (`decode`: eval.decode). The
     mean read takes each continuous parameter that the network sees as present at the expected
     value of its distribution over the value classes: the value nearest the truth in squared
-    distance, as the Chamfer distance counts it (docs/fidelity.md, Reading the classifier)."""
+    distance, as the Chamfer distance counts it (docs/design.md#decoding)."""
     classes = model.classes(outputs, modality, decode).tolist()
     rows = [recipe.values_from_classes(dict(zip(model.parameter_names, c, strict=True))) for c in classes]
     if decode != "mean":

@@ -160,7 +160,7 @@ BUDGET = "program evaluations of the fit"
 
 def budget_option(c, help: str) -> argparse.Action:
     return c.add_argument("--budget", metavar="N", type=at_most(5000, "program evaluations", "the fit's curve flattens "
-                                                   "well before (docs/wild.md)", low=0), help=help)
+                                                   "well before (docs/design.md#fit)", low=0), help=help)
 
 
 def shapes_option(c, high: int, why: str, help: str, default: int | None = None) -> None:

@@ -74,7 +74,7 @@ def surface_samples(vertices: np.ndarray, faces: np.ndarray, n: int, rng: np.ran
     Stable under rounding: a mesh moved a little (a file saved turned, a program's shape at a
     value 1e-6 away) gives the same points moved alike, in the same order, where inverse-CDF
     sampling sends some points to other faces (and the fit's objective, the network's cloud
-    and all after them jump; docs/wild.md, Turns). Face f gets floor(OVERSAMPLE * n * its
+    and all after them jump; docs/design.md#pose-and-sampling). Face f gets floor(OVERSAMPLE * n * its
     share of the area + r_f) candidate points, r_f uniform; each candidate's place in its
     face, its slot (of n) and its rank come from a hash of (face, number), not from a running
     draw; each slot keeps its best ranked candidate (a slot left empty, e^-OVERSAMPLE of

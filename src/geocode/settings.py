@@ -251,13 +251,14 @@ class Eval(Group):
     sketch_fit_budget: whole(0) = key("program evaluations of a drawing's fit: `geocode reconstruct` on a "
                                       "drawing, `bench fit --modality sketch`, eval.fit's sketch conditions")
     sketch_fit_domain_budget: per_domain(whole(0), "a whole number >= 0") = key(
-        "per-domain sketch_fit_budget, {<domain>: N}, where a domain's fit gains from more (docs/wild.md)")
+        "per-domain sketch_fit_budget, {<domain>: N}, where a domain's fit gains from more "
+        "(docs/design.md#drawing-fit)")
     sketch_fit_branches: per_domain(whole(1), "a whole number >= 1") = key(
         "per-domain searches of a drawing's fit, {<domain>: N}: one for each of the network's N likeliest options "
-        "of its least sure discrete choice, the budget shared (docs/wild.md); other domains 1")
+        "of its least sure discrete choice, the budget shared (docs/design.md#drawing-fit); other domains 1")
     sketch_fit_orders: per_domain(Annotated[int, Field(ge=1, le=2)], "1 or 2") = key(
         "per-domain sweep orders of a drawing's fit, {<domain>: 2}: each branch searched twice, its discrete "
-        "switches judged before and after the continuous sweeps (docs/wild.md); other domains 1")
+        "switches judged before and after the continuous sweeps (docs/design.md#drawing-fit); other domains 1")
     max_fit_shapes: Shapes = key("fit the predictions of eval.fit's conditions on at most this many of the "
                                  "test shapes (an even spread); null: all")
     fit: each(Name) = key("test conditions (pc, pc-noise0.02, sketch-<camera>, ...) whose predictions are "

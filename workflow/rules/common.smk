@@ -109,7 +109,7 @@ def log_path(folder, rule, name=None):
 
 def training_threads(wildcards):
     """Half the cores: two trainings side by side at one thread each finish 20% sooner than
-    one after the other at two (docs/fidelity.md, Time). A cluster run gives no --cores
+    one after the other at two (docs/design.md#training-threads). A cluster run gives no --cores
     (each job gets its own node): there a training asks for 2."""
     try:
         return max(1, workflow.cores // 2)

@@ -32,7 +32,7 @@ SPAN_BUDGET = 2000
 POOL = 200   # random shapes of the program, each a start (one evaluation)
 # rounds of short fits that judge the starts: (starts kept, evaluations each); a start's first
 # evaluation ranks forms by chance, where its first sweeps (the discrete ones switch its form)
-# tell them apart (docs/wild.md, The programs' reach)
+# tell them apart (docs/design.md#span)
 HALVING = ((16, 40), (6, 100))
 FINALISTS = 2   # the long fit's CMA-ES runs, from the best of the last round
 
@@ -61,7 +61,7 @@ def span_fit(program, recipe, target: np.ndarray, budget: int, seed: int):
     and POOL random shapes, judged by short fits (`judged_by_short_fits`), and a long one from
     the best: `budget` evaluations in all. A turn judged by the defaults alone can be lost to a
     form they lack: a long coffee table's turn went to a diagonal, from which its fit never
-    came back (docs/wild.md, The programs' reach)."""
+    came back (docs/design.md#span)."""
     from geocode.reconstruct.run import TURNS
 
     defaults, options = program.check({}), all_options(recipe)

@@ -4,7 +4,7 @@
 group inputs/outputs, and offers named helpers for the nodes programs use often. Every output
 it hands out is a `Socket`, which overloads Python's operators, so that a block or a program
 reads as ordinary arithmetic: `g.vec(x + splay, -y - splay, 0)` adds the same Math, Vector
-Math and Combine XYZ nodes as spelling each of them out (docs/authoring.md lists the rules).
+Math and Combine XYZ nodes as spelling each of them out (docs/guide/programs.md lists the rules).
 Sockets are addressed by identifier or by name, never by position (except the unnamed
 operands of Math-like nodes).
 """

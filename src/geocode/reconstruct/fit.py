@@ -16,9 +16,9 @@ nearest training shapes), and last
 sweeps of smaller steps from the best shape found. The sweeps make the fit end near the same
 shape from nearby starts: on the first 10 test chairs, each fitted as given and turned by 137
 degrees (whose starts differ a little), CMA-ES alone ended within 1.2x of itself on 5 of 10
-and with the sweeps on 10 of 10, at a lower median distance (docs/wild.md, Turns). The fit
+and with the sweeps on 10 of 10, at a lower median distance (docs/design.md#pose-and-sampling). The fit
 returns the best shape seen, so it never makes the distance worse than the best start. The
-distance it minimises tolerates partial scans and outliers (`CloudDistance`, docs/wild.md).
+distance it minimises tolerates partial scans and outliers (`CloudDistance`, docs/design.md#fit).
 """
 
 from __future__ import annotations
@@ -402,7 +402,7 @@ def snapped(recipe, values: Mapping[str, float]) -> dict[str, float]:
     """`values` with each continuous recipe parameter rounded to SNAP of its range. Readings
     of one input that differ by rounding (the input turned, its canonical cloud 1e-7 away)
     then give the same starts, where the feedback's rounds would grow a 1e-7 difference
-    100-fold a round and the fit end elsewhere (docs/wild.md, Turns)."""
+    100-fold a round and the fit end elsewhere (docs/design.md#pose-and-sampling)."""
     out = dict(values)
     for p in recipe.parameters:
         if p.kind == "float" and p.name in out and p.max > p.min:
@@ -443,7 +443,7 @@ def cloud_feedback(read, program, recipe, cloud: np.ndarray, start: Start, point
     (its canonical cloud, as it saw it) turned to `start`'s turn beside each round's shape,
     sampled as its clouds are (FEEDBACK_POINTS surface points, then `points.network_cloud`).
     On the eight development cabinets these starts took the fit 0-7% nearer on every file
-    (median 0.706x -> 0.679x the nearest training shape; docs/wild.md)."""
+    (median 0.706x -> 0.679x the nearest training shape; docs/design.md#network-feedback)."""
     from geocode.points import network_cloud
 
     rng = np.random.default_rng(seed)
@@ -524,7 +524,7 @@ def sweep_continuous(objective, space: SearchSpace, x: np.ndarray, f: float, bud
     at most `budget` evaluations. Most parameters change one part of the shape; one at a time,
     each change is judged on its own, where a population of random moves of all of them at
     once mixes good and bad ones. A parameter of a part the shape lacks changes nothing, so
-    it is skipped rather than given evaluations (docs/wild.md, Hidden parameters)."""
+    it is skipped rather than given evaluations (docs/design.md#fit)."""
     x, used = np.array(x, dtype=np.float64), 0
     shown = space.shown(x)
     for j in [*range(len(space.continuous)), *range(len(x) - extra, len(x))]:

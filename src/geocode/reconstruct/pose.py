@@ -331,7 +331,7 @@ def level_turn(points: np.ndarray, seed: int = 0,
     same frame up to a quarter-turn, which the front search covers. Every turn is taken as
     found, however small: leaving inputs within a degree of square as they are parted a
     shape whose square directions lie a little off (a lamp's arms: 0.01 degrees) from the
-    same shape turned, which was turned by the whole angle (docs/wild.md, Turns).
+    same shape turned, which was turned by the whole angle (docs/design.md#pose-and-sampling).
     `faces`: (normals, areas) of a mesh's faces in the frame
     of `points`, used instead of normals estimated from the points: exact, where the
     estimated ones leave up to 2 degrees (a turned chair then differs from the unturned one

@@ -14,7 +14,7 @@ the shape's pose from the best.
 A drawing of any size and stroke width is cropped to its strokes, scaled to the sketches'
 extent, its strokes thinned or thickened to theirs (2 px), and binarised onto a 224x224 white
 canvas; the network answers it, and `geocode.reconstruct.sketchfit` searches the parameters and the camera
-for the shape whose line drawing is nearest its strokes (docs/wild.md, Drawings).
+for the shape whose line drawing is nearest its strokes (docs/design.md#drawing-fit).
 """
 
 from __future__ import annotations
@@ -265,7 +265,7 @@ class Reconstructor:
         (`fit.cloud_feedback`, `read` the network's reader); and those rounds, as starts of the
         fit. The up axis is chosen by these answers, after the feedback: a box's first answer
         may fit as well on a side or upside down, its corrected ones less often (the
-        development set: docs/wild.md)."""
+        development set: docs/design.md#network-feedback)."""
         _, start = self.best_answer(frame, answers)
         feedback = cloud_feedback(read, self.program, self.recipe, frame.cloud, start, self.cfg.data.points,
                                   self.cfg.seed)

@@ -161,7 +161,7 @@ def predict_step(cfg: DictConfig, domain: str, checkpoint: Path, out: Path) -> s
 def mean_shape(cfg: DictConfig, domain: str, recipe) -> pd.DataFrame:
     """The baseline: every parameter at its most frequent class in the training split (the
     stronger constant: each continuous parameter at its median class is further from the test
-    shapes, docs/fidelity.md)."""
+    shapes, docs/design.md#decoding)."""
     train = load_recipes(paths.recipes_file(paths.split_dir(cfg, domain, "train")))
     classes = recipe.class_matrix(train)                        # (n, P)
     common = {p.name: int(np.bincount(classes[:, j]).argmax()) for j, p in enumerate(recipe.parameters)}
