@@ -402,6 +402,9 @@ def test_bench_epoch_counts_the_steps_of_an_epoch():
     assert 0 < out["epoch_s"] < wall and out["device"] == "cpu"      # the steps alone, not the set-up
     huang = bench_epoch(clouds=5, sketches=10, batch=2, device="cpu", n_points=64, n_heads=3, variant="huang")
     assert huang["clouds"] == 0 and huang["sketches"] == 12
+    first = bench_epoch(clouds=5, sketches=10, batch=2, device="cpu", n_points=64, n_heads=3, max_steps=1)
+    assert first["steps"] == 3 and first["timed_steps"] == 1 and first["clouds"] == 6     # the epoch's, not the timed
+    assert first["epoch_s"] == pytest.approx(3 * first["step_s"])
 
 
 def test_embedding_norm_gives_the_shared_decoders_each_modality_standardised():

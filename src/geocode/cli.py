@@ -344,9 +344,15 @@ def add_benchmarks(sub, domains: list[str]) -> None:
     c.add_argument("--json", action="store_true")
     c.set_defaults(run=cmd_bench_program)
 
-    c = command(sub, "dataset", "export shapes/s, sketch views/s (one render thread), clouds/s",
-                "geocode bench dataset vase")
+    c = command(sub, "dataset", "export shapes/s, sketch views/s (one render thread), clouds/s and MB per 1000 "
+                "shapes of each, on training shapes of a domain at a profile's settings; the domain's whole "
+                "dataset there: shapes, disk, job-hours and wall hours",
+                "geocode bench dataset vase", "geocode bench dataset chair -n 24 -j 8 profile=paper")
     c.add_argument("domain", choices=domains)
+    shapes_option(c, 1000, "a rate settles within a few dozen", "shapes measured (default 24)", default=24)
+    c.add_argument("-j", "--jobs", metavar="N", default=1,
+                   type=at_most(512, "jobs", "a domain's dataset is a few hundred shard jobs"),
+                   help="jobs at once for the projected wall hours (default 1)")
     c.add_argument("--json", action="store_true")
     c.set_defaults(run=cmd_bench_dataset)
 
@@ -357,7 +363,8 @@ def add_benchmarks(sub, domains: list[str]) -> None:
 
     c = command(sub, "epoch", "one training epoch at a dataset size (default: the paper-scale vase), "
                 "on random tensors on the device", "geocode bench epoch --device cuda",
-                "geocode bench epoch --clouds 330 --sketches 330 --points 1536 --variant huang")
+                "geocode bench epoch --clouds 330 --sketches 330 --points 1536 --variant huang",
+                "geocode bench epoch --device cpu --steps 5")
     c.add_argument("--clouds", type=at_most(100000, "clouds", "ten paper-scale epochs; the time grows with it"),
                    default=9330, help="clouds per epoch (default: the paper-scale vase's 9330)")
     c.add_argument("--sketches", type=at_most(200000, "sketches", "ten paper-scale epochs; the time grows with it"),
@@ -366,6 +373,8 @@ def add_benchmarks(sub, domains: list[str]) -> None:
     c.add_argument("--variant", default="joint", help="the model variant (joint, separate, regression, huang)")
     c.add_argument("--points", type=at_most(10000, "points", "the neighbour search grows with their square "
                                             "(19 times the memory of 2300)"), default=2300, help="points per cloud")
+    c.add_argument("--steps", metavar="N", type=at_least(1), help="time only the first N steps and scale their "
+                   "mean to the epoch's (a paper-scale epoch on a CPU takes a long time)")
     c.add_argument("--json", action="store_true")
     c.set_defaults(run=cmd_bench_epoch)
 
@@ -558,8 +567,9 @@ def cmd_bench_program(args):
 
 def cmd_bench_dataset(args):
     from geocode.bench.dataset import bench_dataset
+    from geocode.config import compose
 
-    return bench_dataset(args.domain)
+    return bench_dataset(compose([f"domain={args.domain}", *args.overrides]), n=args.shapes, jobs=args.jobs)
 
 
 def cmd_bench_train(args):
@@ -575,7 +585,8 @@ def cmd_bench_epoch(args):
         raise UserError(f"--sketches {args.sketches}", f"more than {SKETCHES_PER_CLOUD} per cloud "
                         f"(--clouds {args.clouds}): a step would hold them all on the device",
                         f"give at most {SKETCHES_PER_CLOUD * args.clouds}")
-    return bench_epoch(args.clouds, args.sketches, device=args.device, n_points=args.points, variant=args.variant)
+    return bench_epoch(args.clouds, args.sketches, device=args.device, n_points=args.points, variant=args.variant,
+                       max_steps=args.steps)
 
 
 def cmd_bench_eval(args):
@@ -738,8 +749,8 @@ BLENDER = {cmd_programs, cmd_program_show, cmd_program_build, cmd_shape, cmd_gal
            cmd_sketch, cmd_rebuild, cmd_reconstruct, cmd_mix, cmd_interpolate, cmd_addon_build}
 # Commands that take Hydra overrides (key=value) after their options.
 OVERRIDES = {cmd_reconstruct, cmd_report, cmd_sample, cmd_export, cmd_sketch, cmd_points, cmd_train, cmd_config,
-             cmd_simplify, cmd_predict, cmd_rebuild, cmd_metrics, cmd_tables, cmd_timings, cmd_bench_fit,
-             cmd_bench_turns, cmd_bench_real, cmd_bench_span}
+             cmd_simplify, cmd_predict, cmd_rebuild, cmd_metrics, cmd_tables, cmd_timings, cmd_bench_dataset,
+             cmd_bench_fit, cmd_bench_turns, cmd_bench_real, cmd_bench_span}
 
 
 if __name__ == "__main__":

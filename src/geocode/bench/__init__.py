@@ -1,7 +1,7 @@
 """`geocode bench <benchmark>`: every benchmark, one module per subject (no timings in tests).
 
     program   shapes/s of a program, faces, loose parts, the drop test
-    dataset   export shapes/s, sketch views/s, clouds/s
+    dataset   export shapes/s, sketch views/s, clouds/s, disk; a whole domain's hours at a profile
     train     encoder samples/s and inference latency; one training epoch (`bench epoch`)
     evaluate  rebuilt shapes/s, Chamfer time, drop-test time (`bench eval`)
     fit       the fit of `geocode reconstruct` on a run's clean clouds; sketch_fit: on its sketches

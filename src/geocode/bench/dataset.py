@@ -1,70 +1,118 @@
-"""Throughput of the dataset stages on a domain's own shapes (`geocode bench dataset`)."""
+"""Throughput and disk of a domain's dataset stages at a profile's settings, and the hours its
+whole dataset takes (`geocode bench dataset`).
+
+The domain's recipes are sampled as the sample step draws them (pure Python, nothing
+written), which gives the dataset's size; a slice of its training split, spread over the
+forced parameters, then goes through the export, sketch and points shard jobs of the
+workflow, one process, into a temporary folder. Rates exclude each job's start-up (Blender,
+the program, the renderer: seconds a job, over hundreds of shapes a shard)."""
 
 from __future__ import annotations
 
 import logging
+import math
 import tempfile
-from collections.abc import Sequence
 from pathlib import Path
 
-import numpy as np
-import trimesh
+from omegaconf import DictConfig
 
-from geocode import meshio
+from geocode import meshio, paths
 from geocode.blender import export, sketch
-from geocode.points import make_clouds
-from geocode.timing import Stopwatch, seconds_per_call
+from geocode.config import split_variations
+from geocode.points import make_clouds, points_shard
+from geocode.recipe import save_recipes
+from geocode.steps.dataset import assign_shards, sample_dataset, split_cameras, spread_subset
+from geocode.timing import Stopwatch
 
 log = logging.getLogger(__name__)
 
-
-def bench_sketch(shapes_dir: str | Path, ids: Sequence[str],
-                 cameras: Sequence[sketch.Camera] = sketch.DEFAULT_CAMERAS) -> float:
-    """Views per second for sketching exported shapes (renderer built and warmed up first,
-    OBJ reading included, as in `sketch_shard`)."""
-    shapes_dir = Path(shapes_dir)
-    r = sketch.renderer()
-    with tempfile.TemporaryDirectory() as tmp:
-        first = meshio.read_obj(shapes_dir / f"{ids[0]}.obj")
-        r.set_mesh(first.vertices, first.faces)
-        r.render(cameras[0], Path(tmp) / "warm.png")
-        with Stopwatch() as clock:
-            for shape_id in ids:
-                mesh = meshio.read_obj(shapes_dir / f"{shape_id}.obj")
-                paths = {c.name: Path(tmp) / f"{shape_id}_{c.name}.png" for c in cameras}
-                sketch.sketch_mesh(mesh, paths, cameras, shape_id)
-    return len(ids) * len(cameras) / clock.seconds
+STAGE_FOLDERS = {"meshes": "shapes", "sketches": "sketches", "clouds": "points"}   # what a split's folder holds
 
 
-def bench_dataset(domain: str, n: int = 12) -> dict[str, float]:
-    """{"export_shapes_per_s", "sketch_views_per_s", "clouds_per_s"} on n random shapes of the
-    domain (one process, as a shard runs)."""
+def bench_dataset(cfg: DictConfig, n: int = 24, jobs: int = 1) -> dict:
+    """Export shapes/s, sketch views/s and clouds/s on n training shapes of cfg.domain, MB per
+    1000 shapes of each stage's files, and the domain's whole dataset at these settings: its
+    shapes, views, disk and hours (job-hours; wall hours with `jobs` jobs at once)."""
+    domain = cfg.domain.name
     program = export.load_program(domain)
     recipe = program.recipe()
-    rows = export.random_rows(program, n)
+    with Stopwatch() as sampling:
+        splits = sample_dataset(recipe, split_variations(cfg, domain), seed=cfg.seed, domain=domain)
+        splits = {s: spread_subset(splits[s], cfg.data.max_shapes[s]) for s in paths.SPLITS}
+    shapes = {s: len(frame) for s, frame in splits.items()}
+    views = {s: shapes[s] * len(split_cameras(cfg.data.sketch.cameras, s)) for s in paths.SPLITS}
     with tempfile.TemporaryDirectory() as tmp:
-        with Stopwatch() as clock:
-            for shape_id, values in rows:
-                export.export_shape(program, recipe, shape_id, values, Path(tmp))
-        export_rate = n / clock.seconds
-        sketch_rate = bench_sketch(tmp, [shape_id for shape_id, _ in rows])
-    clouds = bench_clouds(n=50)
-    result = {"export_shapes_per_s": round(export_rate, 2), "sketch_views_per_s": round(sketch_rate, 2),
-              "clouds_per_s": round(clouds, 2)}
+        measured = measure_slice(cfg, program, recipe, spread_subset(splits["train"], n), Path(tmp) / "train")
+    rates, disk = measured["rates"], measured["mb_per_1000_shapes"]
+    hours = projected_hours(shapes, views, rates, sampling.seconds, jobs, cfg.data.shards)
+    result = {
+        "domain": domain, "profile": cfg.profile_name, "shapes_measured": measured["shapes"],
+        **{k: round(v, 2) for k, v in rates.items()},
+        **{f"{stage}_mb_per_1000_shapes": round(mb, 1) for stage, mb in disk.items()},
+        "domain_shapes": sum(shapes.values()), "domain_views": sum(views.values()),
+        "domain_split_shapes": shapes,
+        "domain_disk_gb": round(disk_gb(shapes, views, disk, measured["views_per_shape"]), 2),
+        "job_hours": round(hours["job"], 2), "jobs": jobs, "wall_hours": round(hours["wall"], 2),
+        "epoch_size": f"--clouds {shapes['train']} --sketches {views['train']}",
+    }
     log.info("bench dataset %s: %s", domain, result)
     return result
 
 
-def bench_mesh(sections: int = 64, rings: int = 80) -> trimesh.Trimesh:
-    """A closed vase-like surface of revolution with about 2 * sections * rings faces."""
-    z = np.linspace(0.0, 1.0, rings)
-    r = 0.25 + 0.12 * np.sin(2 * np.pi * z) + 0.05 * np.cos(6 * np.pi * z)
-    profile = np.column_stack([np.r_[0.0, r, 0.0], np.r_[0.0, z, 1.0]])
-    return trimesh.creation.revolve(profile, sections=sections)
+def measure_slice(cfg: DictConfig, program, recipe, frame, split_dir: Path) -> dict:
+    """Run the export, sketch and points jobs on `frame`'s shapes as one shard of a training
+    split in `split_dir`: {"shapes", "rates", "mb_per_1000_shapes", "views_per_shape"}."""
+    s = cfg.data.sketch
+    cameras = split_cameras(s.cameras, "train")
+    save_recipes(assign_shards(frame, 1), paths.recipes_file(split_dir))
+    with Stopwatch() as exporting:
+        export.export_shard(split_dir, 0, cfg.domain.name, program, recipe)
+    warm_up(split_dir, frame["id"].iloc[0], s.size)
+    with Stopwatch() as sketching:
+        sketch.sketch_shard(split_dir, 0, cameras=cameras, size=s.size, seed=cfg.seed, jitter=s.jitter,
+                            elevation=s.elevation)
+    with Stopwatch() as clouding:
+        points_shard(split_dir, 0, cfg.data.points, cfg.seed)
+    n = len(frame)
+    rates = {"export_shapes_per_s": n / exporting.seconds,
+             "sketch_views_per_s": n * len(cameras) / sketching.seconds,
+             "clouds_per_s": n / clouding.seconds}
+    mb = {stage: 1000 * folder_bytes(split_dir / folder) / n / 1e6 for stage, folder in STAGE_FOLDERS.items()}
+    return {"shapes": n, "rates": rates, "mb_per_1000_shapes": mb, "views_per_shape": len(cameras)}
 
 
-def bench_clouds(n: int = 50) -> float:
-    """Clouds per second for make_clouds at the paper's sizes on a ~10K-face mesh."""
-    mesh = bench_mesh()
-    rng = np.random.default_rng(0)
-    return 1.0 / seconds_per_call(lambda: make_clouds(mesh, rng=rng), n)
+def warm_up(split_dir: Path, shape_id: str, size: int) -> None:
+    """Outside the clock, what a shard job does once: build the sketch renderer, draw a view,
+    and load the compiled cloud sampling."""
+    mesh = meshio.read_obj(paths.shape_file(paths.shapes_dir(split_dir), shape_id))
+    with tempfile.TemporaryDirectory() as tmp:
+        sketch.sketch_mesh(mesh, {"warm": Path(tmp) / "warm.png"}, [sketch.Camera("warm", 35.0)], size=size)
+    make_clouds(mesh, surface=200, fps=20, random=20)
+
+
+def folder_bytes(folder: Path) -> int:
+    return sum(f.stat().st_size for f in folder.rglob("*") if f.is_file())
+
+
+def projected_hours(shapes: dict[str, int], views: dict[str, int], rates: dict[str, float],
+                    sample_s: float, jobs: int, shards: int) -> dict[str, float]:
+    """{"job", "wall"} hours of a domain's dataset: every shape exported and sampled into
+    clouds, every view drawn, at the measured rates. The wall clock with `jobs` at once is the
+    job time shared among them, but never below the longest chain: one training shard's
+    export, then its sketches."""
+    total_shapes, total_views = sum(shapes.values()), sum(views.values())
+    job_s = (sample_s + total_shapes / rates["export_shapes_per_s"] + total_views / rates["sketch_views_per_s"]
+             + total_shapes / rates["clouds_per_s"])
+    shard_shapes = math.ceil(shapes["train"] / shards)
+    chain_s = (sample_s + shard_shapes / rates["export_shapes_per_s"]
+               + shard_shapes * views["train"] / max(1, shapes["train"]) / rates["sketch_views_per_s"])
+    return {"job": job_s / 3600, "wall": max(job_s / jobs, chain_s) / 3600}
+
+
+def disk_gb(shapes: dict[str, int], views: dict[str, int], mb_per_1000: dict[str, float],
+            views_per_shape: int) -> float:
+    """The domain's dataset on disk: meshes and clouds per shape, sketches per view."""
+    total_shapes, total_views = sum(shapes.values()), sum(views.values())
+    mb = (total_shapes * (mb_per_1000["meshes"] + mb_per_1000["clouds"])
+          + total_views * mb_per_1000["sketches"] / views_per_shape) / 1000
+    return mb / 1000

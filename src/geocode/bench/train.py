@@ -72,12 +72,14 @@ def bench_train(batch: int = 33, n_points: int = 2300, repeats: int = 3, n_heads
 
 
 def bench_epoch(clouds: int = 9330, sketches: int = 18660, batch: int = 33, device: str = "auto",
-                n_points: int = 2300, n_heads: int = 39, seed: int = 0, variant: str = "joint") -> dict:
+                n_points: int = 2300, n_heads: int = 39, seed: int = 0, variant: str = "joint",
+                max_steps: int | None = None) -> dict:
     """Seconds of one training epoch of a model variant at a dataset size (default: the
     paper-scale vase, 9330 clouds and 18660 sketches), on random tensors of the inputs'
     shapes kept on the device (data loading not included): ceil(clouds / batch) Adam
     steps, each on `batch` clouds (for a variant that reads them) and the matching share
-    of the sketches."""
+    of the sketches. With `max_steps`, only the first max_steps are timed and the epoch's
+    time is their mean times the epoch's steps ("timed_steps" says how many were timed)."""
     dev = _device(device)
     torch.manual_seed(seed)
     heads = [{"name": f"p{i}", "n_classes": 5 + i % 3, "continuous": True, "existence": i % 4 == 0}
@@ -102,12 +104,13 @@ def bench_epoch(clouds: int = 9330, sketches: int = 18660, batch: int = 33, devi
 
     step()  # warm-up (kernels, caches)
     _sync(dev)
+    timed = min(steps, max_steps or steps)
     with Stopwatch() as clock:
-        for _ in range(steps):
+        for _ in range(timed):
             step()
         _sync(dev)
-    seconds = clock.seconds
-    return {"epoch_s": seconds, "steps": steps, "variant": variant,
+    return {"epoch_s": clock.seconds * steps / timed, "steps": steps, "timed_steps": timed,
+            "step_s": clock.seconds / timed, "variant": variant,
             "clouds": steps * batch if inputs["points"] is not None else 0, "sketches": steps * per_step,
             "device": torch.cuda.get_device_name(dev) if dev.type == "cuda" else "cpu",
             "threads": torch.get_num_threads()}
