@@ -37,7 +37,6 @@ from geocode.meshio import normalise_unit_sphere
 from geocode.points import network_cloud
 from geocode.reconstruct import pose as poses
 from geocode.reconstruct.fit import (
-    RESTARTS,
     CloudDistance,
     FitResult,
     Pose,
@@ -153,6 +152,7 @@ class Reconstructor:
                  workers: int | None = None):
         from geocode import paths
         from geocode.checkpoints import default_checkpoint, load_model
+        from geocode.config import settings
         from geocode.program import Program
 
         self.cfg, self.domain, self.up, self.candidates = cfg, domain, up, candidates
@@ -162,6 +162,7 @@ class Reconstructor:
         self.recipe = self.program.recipe()
         self.refine_given = refine
         self.refine = cfg.eval.reconstruct_budget if refine is None else refine
+        self.tuning = settings(cfg).fit           # how the fits search (fit.cloud, fit.drawing)
         self.model = self.training = None
         if not model:                             # the pose and the scores alone (bench span)
             return
@@ -204,7 +205,8 @@ class Reconstructor:
         if budget == 0:
             return result
         found = fit_drawing(self.program, self.recipe, [Start(values, options)], sketch, budget,
-                            seed=self.cfg.seed, helpers=self.helpers, read=reader(self.model, self.recipe, "sketch"),
+                            self.tuning.drawing, seed=self.cfg.seed, helpers=self.helpers,
+                            read=reader(self.model, self.recipe, "sketch"),
                             **sketch_fit_searches(self.cfg, self.domain))
 
         def scored(values: dict, camera) -> tuple[float, np.ndarray]:
@@ -234,7 +236,8 @@ class Reconstructor:
         if self.refine > 0:   # the fit
             starts = answers[i] + self.nearest_starts(frame, answers[i]) + feedback
             result.fit = fit(self.program, self.recipe, starts, frame.samples[:TARGET_POINTS],
-                             self.refine, seed=self.cfg.seed, restarts=max(RESTARTS, self.candidates),
+                             self.refine, self.tuning.cloud, seed=self.cfg.seed,
+                             restarts=max(self.tuning.cloud.restarts, self.candidates),
                              helpers=self.helpers)
             fitted = [Answer(v, w, self.score(frame, v, w)) for v, w in result.fit.found]
             result.answers = distinct_answers([*fitted, network], self.candidates)
@@ -268,7 +271,7 @@ class Reconstructor:
         development set: docs/wild.md)."""
         _, start = self.best_answer(frame, answers)
         feedback = cloud_feedback(read, self.program, self.recipe, frame.cloud, start, self.cfg.data.points,
-                                  self.cfg.seed)
+                                  self.cfg.seed, self.tuning.cloud.feedback)
         best = min((Answer(self.program.check(s.values), s_pose(s), self.score(frame, s.values, s_pose(s)))
                     for s in [start, *feedback]), key=lambda a: a.chamfer)
         return best, feedback
