@@ -277,14 +277,14 @@ def test_the_network_answer_is_the_nearest_of_its_feedback_rounds(files):
     from geocode.config import compose
     from geocode.reconstruct.fit import network_starts
     from geocode.reconstruct.inputs import read_geometry
-    from geocode.reconstruct.run import TURNS, Reconstructor, s_pose
+    from geocode.reconstruct.run import TURNS, Reconstructor, start_placement
 
     run = Reconstructor(compose(["domain=vase"]), "vase", files["ckpt"], refine=0, up="z")
     result = run(files["root"] / "vase.obj")
     frame = run.frames(read_geometry(files["root"] / "vase.obj"))[0]
     _, start = run.best_answer(frame, network_starts(run.model, run.recipe, frame.cloud, TURNS, run.cfg.eval.decode))
     assert result.network == result.answers[0].chamfer
-    assert result.network <= run.score(frame, start.values, s_pose(start)) + 1e-12
+    assert result.network <= run.score(frame, start.values, start_placement(start)) + 1e-12
 
 
 def test_drawing_is_brought_to_the_sketch_format(files):

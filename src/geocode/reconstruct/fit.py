@@ -58,9 +58,9 @@ SNAP = 1e-3              # starts' continuous values are rounded to this share o
 
 
 @dataclass(frozen=True)
-class Pose:
-    """Where the program's unit-sphere shape sits against the input: turned by `turn`
-    radians about +Z, scaled, then offset."""
+class Placement:
+    """Where the program's unit-sphere shape sits against the input (in the input's canonical
+    frame, `pose.Pose`'s output): turned by `turn` radians about +Z, scaled, then offset."""
 
     turn: float = 0.0
     scale: float = 1.0
@@ -77,10 +77,10 @@ class Pose:
         m = self.matrix()
         return np.asarray(points, dtype=np.float64) @ m[:3, :3].T + m[:3, 3]
 
-    def then(self, other: Pose) -> Pose:
-        """This pose followed by `other`."""
+    def then(self, other: Placement) -> Placement:
+        """This placement followed by `other`."""
         offset = other.scale * turn_z(math.degrees(other.turn)) @ np.asarray(self.offset) + np.asarray(other.offset)
-        return Pose(turn=self.turn + other.turn, scale=self.scale * other.scale,
+        return Placement(turn=self.turn + other.turn, scale=self.scale * other.scale,
                     offset=tuple(float(o) for o in offset))
 
     def to_dict(self) -> dict:
@@ -102,14 +102,14 @@ class Start:
 @dataclass
 class FitResult:
     values: dict[str, float]   # every program parameter, raw
-    pose: Pose                 # where the shape sits against the input
+    pose: Placement                 # where the shape sits against the input
     before: float              # the best start's distance to the target (the fit's objective)
     after: float               # ... the fitted shape's (<= before)
     evaluations: int
     seconds: float
     start: int = 0             # index of the start the best shape came from
     curve: list[float] = field(default_factory=list)   # best distance after each evaluation
-    found: list[tuple[dict[str, float], Pose]] = field(default_factory=list)  # each run's best
+    found: list[tuple[dict[str, float], Placement]] = field(default_factory=list)  # each run's best
     scores: list[float] = field(default_factory=list)   # each start's own distance, in order
 
 
@@ -190,8 +190,8 @@ class SearchSpace:
         return self.recipe.shown(self.values(x[:len(self.continuous) + len(self.discrete)]))
 
 
-def align(points: np.ndarray, distance: CloudDistance, pose: Pose,
-          steps: int = ALIGN_STEPS) -> Pose:
+def align(points: np.ndarray, distance: CloudDistance, pose: Placement,
+          steps: int = ALIGN_STEPS) -> Placement:
     """`pose` refined so that the posed `points` lie on the distance's target: each step pairs
     each of ALIGN_POINTS points of either cloud (random samples) with its nearest in the other
     (the `trim` share of farthest pairs dropped) and solves for the best turn about +Z, scale
@@ -204,7 +204,7 @@ def align(points: np.ndarray, distance: CloudDistance, pose: Pose,
                                        steps, distance.trim)
     turn = pose.turn + float(np.clip(turn - pose.turn, -MAX_TURN, MAX_TURN))
     scale = float(np.clip(scale / pose.scale, 1 / SCALE_RANGE, SCALE_RANGE)) * pose.scale
-    return Pose(turn=turn, scale=scale, offset=tuple(float(o) for o in offset))
+    return Placement(turn=turn, scale=scale, offset=tuple(float(o) for o in offset))
 
 
 @numba.njit(cache=True, nogil=True)
@@ -249,10 +249,10 @@ def _align_steps(points, side, target, target_grid, turn, scale, offset, steps, 
 
 
 def score(program, distance: CloudDistance, pose: bool, values: Mapping[str, float],
-          turn: float) -> tuple[float, Pose]:
+          turn: float) -> tuple[float, Placement]:
     """One candidate's distance to the target and where it sits: sampled, aligned (with
     `pose`, else at its start's turn) and measured; inf for a combination the program refuses."""
-    where = Pose(turn=turn)
+    where = Placement(turn=turn)
     try:
         points = shape_points(program, values)
     except ValueError:
@@ -273,7 +273,7 @@ class Scorer:
         self.pool = helper_pool(program.domain, helpers) if helpers > 0 else None
         self.token = uuid.uuid4().hex     # which target the helpers' cached distance is for
 
-    def __call__(self, batch: list[tuple[dict, float]]) -> list[tuple[float, Pose]]:
+    def __call__(self, batch: list[tuple[dict, float]]) -> list[tuple[float, Placement]]:
         return share_out(self.pool, self.helpers, batch,
                          lambda item: score(self.program, self.distance, self.pose, *item),
                          _helper_score, self.token, self.target, self.trim, self.pose)
@@ -332,7 +332,7 @@ def helper_state(token: str, make):
 
 
 def _helper_score(token: str, target: np.ndarray, trim: float, pose: bool,
-                  batch: list[tuple[dict, float]]) -> list[tuple[float, Pose]]:
+                  batch: list[tuple[dict, float]]) -> list[tuple[float, Placement]]:
     program, distance = helper_state(token, lambda _: CloudDistance(target, trim))
     return [score(program, distance, pose, v, t) for v, t in batch]
 
@@ -351,7 +351,7 @@ def fit(program, recipe, starts: Sequence[Start], target: np.ndarray, budget: in
     spaces = [SearchSpace(recipe, Start(program.check(snapped(recipe, s.values)), s.options, s.turn))
               for s in starts[:max(1, budget)]]
     curve: list[float] = []
-    found: dict[int, tuple[float, np.ndarray, Pose]] = {}   # start -> its best (f, x, pose)
+    found: dict[int, tuple[float, np.ndarray, Placement]] = {}   # start -> its best (f, x, pose)
 
     def evaluate(candidates: Sequence[tuple[int, np.ndarray]]) -> list[float]:
         """The distances of candidates (start i, x), scored in one batch (inf where the
@@ -362,7 +362,7 @@ def fit(program, recipe, starts: Sequence[Start], target: np.ndarray, budget: in
         scored = dict(zip(valid, scorer(batch), strict=True))
         out = []
         for k, (i, x) in enumerate(candidates):
-            value, where = scored.get(k, (math.inf, Pose(turn=spaces[i].start.turn)))
+            value, where = scored.get(k, (math.inf, Placement(turn=spaces[i].start.turn)))
             if value < found.get(i, (np.inf,))[0]:
                 found[i] = (value, np.asarray(x), where)
             curve.append(min(value, curve[-1]) if curve else value)
@@ -552,7 +552,7 @@ def sweep_continuous(objective, space: SearchSpace, x: np.ndarray, f: float, bud
 
 def turn_about_z(points: np.ndarray, angle: float) -> np.ndarray:
     """Points turned by `angle` radians about +Z."""
-    return Pose(turn=angle).apply(points)
+    return Placement(turn=angle).apply(points)
 
 
 def network_starts(model, recipe, cloud: np.ndarray, turns: int, decode: str,
