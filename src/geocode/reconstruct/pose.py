@@ -175,13 +175,21 @@ def axis_features(points: np.ndarray) -> np.ndarray:
     return np.array(rows)
 
 
-# Weights of the cues (columns of `axis_features`), fitted by a softmax over the six axes
-# (L2 1e-2) on program shapes: 20 random shapes a domain, each turned by 12 of the 24 axis
-# rotations, rescaled, moved, clean / underside cut and one side missing / 1% noise and 2%
-# outliers. One set per domain, because the cues point opposite ways across domains (a
-# table's mass is near its top, a hanging lamp's near its bottom); "" for any shape.
-# Refit with scripts/fit_up_weights.py when the cues or the programs change (last: when
-# the programs grew to real forms, issue 24: pendant and flush lamps, wide cabinets, ...).
+# The cues of `axis_features`, by column (its docstring says what each measures), each read
+# as if that axis were up: asymmetry across the axis and under a half turn about it, the
+# bottom slab's spread, share of points and fill less the top's, the centre of mass's height,
+# the extent along the axis, how far from round its cross-sections are, and the mass in each
+# of HEIGHT_BINS heights.
+CUES = ("mirror", "half_turn", "slab_spread", "slab_share", "mass_height", "extent", "roundness",
+        "slab_fill", *(f"height_{k}" for k in range(HEIGHT_BINS)))
+
+# The weight of each cue (in CUES' order) in an axis's score, for each domain ("": any shape):
+# one set per domain, because the cues point opposite ways across domains (a table's mass is
+# near its top, a hanging lamp's near its bottom). They are what `python -m geocode.bench.up fit`
+# prints: a softmax over the six axes (weight decay 1e-2) fitted on program shapes, 20 random
+# shapes a domain, each clean, cut as a scan (no underside, one side missing), noisy (1% noise,
+# 2% outliers) and both, each turned by 3 of the 24 axis rotations, rescaled and moved. Refit
+# them when the cues or the programs change, and compare with `... measure` and `... real`.
 WEIGHTS = {
     "": (1.61, -1.88, 0.53, -1.48, 0.63, 0.87, -1.78, -0.61, -0.09, -0.14, -0.47, 0.10, -0.11, -0.17, -0.14, 1.02),
     "chair": (1.03, -1.03, 2.04, 0.27, 0.14, 1.94, -2.00, -1.74, -0.15, -0.63, -0.40, 0.69, 0.86, 0.14, -0.26, -0.25),
