@@ -81,7 +81,7 @@ class Placement:
         """This placement followed by `other`."""
         offset = other.scale * turn_z(math.degrees(other.turn)) @ np.asarray(self.offset) + np.asarray(other.offset)
         return Placement(turn=self.turn + other.turn, scale=self.scale * other.scale,
-                    offset=tuple(float(o) for o in offset))
+                         offset=tuple(float(o) for o in offset))
 
     def to_dict(self) -> dict:
         return {"turn_deg": round(math.degrees(self.turn) % 360, 2), "scale": round(self.scale, 4),
@@ -102,7 +102,7 @@ class Start:
 @dataclass
 class FitResult:
     values: dict[str, float]   # every program parameter, raw
-    pose: Placement                 # where the shape sits against the input
+    pose: Placement            # where the shape sits against the input
     before: float              # the best start's distance to the target (the fit's objective)
     after: float               # ... the fitted shape's (<= before)
     evaluations: int
