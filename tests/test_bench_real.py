@@ -11,6 +11,7 @@ import pytest
 import trimesh
 
 from geocode.cli import main
+from geocode.config import compose, settings
 from geocode.metrics import chamfer_meshes
 from geocode.program import Program
 
@@ -80,7 +81,7 @@ def test_span_finds_a_shape_standing_half_a_quarter_turn_off():
 
     program = Program.load("table")
     target = turn_about_z(shape_points(program, program.check({}), 4096), math.pi / 4)
-    result = span_fit(program, program.recipe(), target, budget=100, seed=0)
+    result = span_fit(program, program.recipe(), target, budget=100, tuning=settings(compose([])).fit.cloud, seed=0)
     assert result.after < 5e-4 and abs(math.degrees(result.pose.turn) - 45.0) < 2.0
 
 
@@ -97,10 +98,11 @@ def test_short_fits_rank_the_starts_by_where_they_end_within_their_budget(monkey
     starts = [span.start_at(program.check(v), options, 0.0)
               for v in ({}, {"pedestal": 1.0, "top_width": 0.5}, {"leg_style": 1.0})]
     monkeypatch.setattr(span, "HALVING", ((2, 8), (1, 6)))
-    ranked, used = span.judged_by_short_fits(program, recipe, starts, target, budget=30, seed=0)
+    tuning = settings(compose([])).fit.cloud
+    ranked, used = span.judged_by_short_fits(program, recipe, starts, target, budget=30, tuning=tuning, seed=0)
     assert used <= 30 and len(ranked) == 1 and ranked[0].values["pedestal"] == 1.0
     assert ranked[0].values["top_width"] != 0.5   # the end of a fit, not the start itself
-    ranked, used = span.judged_by_short_fits(program, recipe, starts, target, budget=2, seed=0)
+    ranked, used = span.judged_by_short_fits(program, recipe, starts, target, budget=2, tuning=tuning, seed=0)
     assert used == 2 and len(ranked) == 2
 
 

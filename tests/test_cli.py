@@ -79,7 +79,16 @@ def test_shape_rejects_unknown_names_and_out_of_range_values(tmp_path):
     result = geocode("shape", "vase", f"{first['name']}={first['max'] + 10}", "-o", str(out))
     assert result.returncode == 2 and first["name"] in result.stderr and not out.exists()
     result = geocode("shape", "vase", f"{first['name']}={first['max']}", "-o", str(out))
-    assert result.returncode == 0 and out.stat().st_size > 0
+    assert result.returncode == 0, result.stderr
+    # the OBJ is the program's shape at that value, to the byte, and not its default shape
+    from geocode.meshio import obj_text
+    from geocode.program import Program
+
+    program = Program.load("vase")
+    mesh = program.evaluate({first["name"]: first["max"]})
+    assert out.read_text() == obj_text(mesh.vertices, mesh.faces)
+    assert out.read_text() != obj_text(program.evaluate({}).vertices, program.evaluate({}).faces)
+    assert f"wrote {out} ({len(mesh.faces)} faces)" in result.stdout + result.stderr
 
 
 def test_program_show_json_lists_every_parameter():

@@ -54,3 +54,20 @@ def test_the_variants_are_joint_but_for_what_they_set(variant, differs):
     joint = dict(compose(["model=joint"]).model)
     other = dict(compose([f"model={variant}"]).model)
     assert other == {**joint, "variant": variant, **differs}
+
+
+def test_the_fits_search_settings_are_keys_with_ranges():
+    """conf/fit/: the fits' tuning a user may change, each key documented and bounded."""
+    keys = documented_keys()
+    assert {"fit.cloud.sigma", "fit.cloud.trim", "fit.cloud.restarts", "fit.cloud.sweep_steps", "fit.cloud.polish",
+            "fit.cloud.feedback", "fit.drawing.camera_guesses", "fit.drawing.azimuth_span", "fit.drawing.prior",
+            "fit.drawing.sweep_steps", "fit.drawing.branch_budget"} <= set(keys)
+    fit = settings(compose(["fit.drawing.prior=0.5", "fit.cloud.sweep_steps=[0.1]"])).fit
+    assert fit.drawing.prior == 0.5 and fit.cloud.sweep_steps == [0.1] and fit.cloud.restarts == 2
+    for override, message in (("fit.cloud.trim=0.9", "out of range; give a number >= 0 and <= 0.5"),
+                              ("fit.cloud.restarts=0", "out of range; give a whole number >= 1"),
+                              ("fit.drawing.camera_sigma=[0.1]", "not valid; give 6 numbers > 0"),
+                              ("fit.drawing.max_elevation=0", "out of range; give a number > 0")):
+        with pytest.raises(ConfigError) as error:
+            compose([override])
+        assert str(error.value).startswith(f"{override}: {message}") and "\n" not in str(error.value)

@@ -7,8 +7,11 @@ import numpy as np
 import pytest
 import trimesh
 
+from geocode.config import compose, settings
 from geocode.points import sample_surface
-from geocode.reconstruct.fit import CloudDistance, Pose, Start, align, trimmed_mean
+from geocode.reconstruct.fit import CloudDistance, Placement, Start, align, trimmed_mean
+
+CLOUD_FIT = settings(compose([])).fit.cloud   # the config's defaults (conf/fit/default.yaml)
 
 
 def box_points(n: int, seed: int, bottom: bool = True) -> np.ndarray:
@@ -33,7 +36,7 @@ def test_the_distance_built_once_per_target_is_the_distance_from_scratch():
     for trim in (0.02, 0.0):
         distance = CloudDistance(target, trim)
         for seed in (6, 7):
-            shape = Pose(turn=0.1, scale=0.95).apply(box_points(2048, seed))
+            shape = Placement(turn=0.1, scale=0.95).apply(box_points(2048, seed))
             to_target = cKDTree(target).query(shape)[0] ** 2
             to_shape = cKDTree(shape, balanced_tree=False, compact_nodes=False).query(target)[0] ** 2
             expected = ((trimmed_mean(to_target, trim) + trimmed_mean(to_shape, trim)) / 2 if trim
@@ -47,9 +50,9 @@ def test_align_finds_the_pose_of_a_turned_scaled_moved_copy():
                                          trimesh.creation.box((0.2, 0.2, 0.8)).apply_translation((0.4, 0.2, 0.5))])
         return sample_surface(mesh, n, np.random.default_rng(seed)).astype(np.float64)
 
-    truth = Pose(turn=0.25, scale=0.9, offset=(0.05, -0.03, 0.02))
-    distance = CloudDistance(truth.apply(shape(4000, 8)))
-    found = align(shape(2048, 9), distance, Pose(), steps=30)   # (a fit's evaluation takes 3)
+    truth = Placement(turn=0.25, scale=0.9, offset=(0.05, -0.03, 0.02))
+    distance = CloudDistance(truth.apply(shape(4000, 8)), CLOUD_FIT.trim)
+    found = align(shape(2048, 9), distance, Placement(), steps=30)   # (a fit's evaluation takes 3)
     assert found.turn == pytest.approx(truth.turn, abs=0.05)
     assert found.scale == pytest.approx(truth.scale, abs=0.02)
     assert found.offset == pytest.approx(truth.offset, abs=0.01)
@@ -72,8 +75,8 @@ def test_trimmed_distance_tolerates_a_missing_underside_and_outliers():
     assert trimmed(shape) < 0.5 * trimmed(taller)
 
 
-def test_pose_turns_scales_then_offsets():
-    pose = Pose(turn=math.pi / 2, scale=2.0, offset=(0.0, 0.0, 1.0))
+def test_placement_turns_scales_then_offsets():
+    pose = Placement(turn=math.pi / 2, scale=2.0, offset=(0.0, 0.0, 1.0))
     assert pose.apply(np.array([[1.0, 0.0, 0.0]])) == pytest.approx(np.array([[0.0, 2.0, 1.0]]))
     assert pose.to_dict() == {"turn_deg": 90.0, "scale": 2.0, "offset": [0.0, 0.0, 1.0]}
 
@@ -89,7 +92,7 @@ class TestFitOnAProgram:
         program = Program.load("vase")
         return program, program.recipe()
 
-    def target(self, vase, pose: Pose) -> np.ndarray:
+    def target(self, vase, pose: Placement) -> np.ndarray:
         from geocode.reconstruct.fit import shape_points
 
         program, _ = vase
@@ -99,10 +102,11 @@ class TestFitOnAProgram:
         from geocode.reconstruct.fit import fit, shape_points
 
         program, recipe = vase
-        truth = Pose(turn=0.3, scale=0.9, offset=(0.05, 0.0, -0.04))
+        truth = Placement(turn=0.3, scale=0.9, offset=(0.05, 0.0, -0.04))
         result = fit(program, recipe, [Start(dict(self.SHAPE))], self.target(vase, truth),
-                     budget=60, seed=0)
-        assert result.after < 0.5 * CloudDistance(self.target(vase, truth))(shape_points(program, self.SHAPE))
+                     budget=60, tuning=CLOUD_FIT, seed=0)
+        unposed = CloudDistance(self.target(vase, truth), CLOUD_FIT.trim)(shape_points(program, self.SHAPE))
+        assert result.after < 0.5 * unposed
         assert result.pose.scale == pytest.approx(truth.scale, abs=0.05)
         assert result.curve == sorted(result.curve, reverse=True)   # best so far, per evaluation
         assert len(result.curve) == result.evaluations == 60
@@ -113,8 +117,8 @@ class TestFitOnAProgram:
         from geocode.reconstruct.fit import Scorer, fit
 
         program, recipe = vase
-        target = self.target(vase, Pose(turn=0.2, scale=0.95))
-        alone, shared = (fit(program, recipe, [Start(dict(self.SHAPE))], target, budget=40, seed=0,
+        target = self.target(vase, Placement(turn=0.2, scale=0.95))
+        alone, shared = (fit(program, recipe, [Start(dict(self.SHAPE))], target, budget=40, tuning=CLOUD_FIT, seed=0,
                              helpers=helpers) for helpers in (0, 1))
         assert shared.curve == alone.curve and shared.values == alone.values and shared.pose == alone.pose
         rng = np.random.default_rng(0)   # a batch, as a CMA-ES generation is shared out
@@ -124,32 +128,28 @@ class TestFitOnAProgram:
     def test_sweeps_correct_one_parameter_exactly(self, vase):
         """A start one sweep step off in one parameter: the first sweep moves it back, where
         CMA-ES alone, moving all of them at once, comes only near in as many evaluations."""
-        import geocode.reconstruct.fit as fitting
+        from geocode.reconstruct.fit import fit
 
         program, recipe = vase
         height = next(p for p in recipe.parameters if p.name == "body_height")   # swept first
         off = dict(self.SHAPE, body_height=self.SHAPE["body_height"] + 0.15 * (height.max - height.min))
-        target = self.target(vase, Pose())
+        target = self.target(vase, Placement())
 
-        def fitted(steps: tuple) -> float:
-            saved = fitting.SWEEP_STEPS, fitting.POLISH
-            fitting.SWEEP_STEPS, fitting.POLISH = steps, 0
-            try:
-                result = fitting.fit(program, recipe, [Start(off)], target, budget=90, seed=0, pose=False)
-            finally:
-                fitting.SWEEP_STEPS, fitting.POLISH = saved
+        def fitted(steps: list[float]) -> float:
+            tuning = CLOUD_FIT.model_copy(update={"sweep_steps": steps, "polish": 0})
+            result = fit(program, recipe, [Start(off)], target, budget=90, tuning=tuning, seed=0, pose=False)
             return abs(result.values["body_height"] - self.SHAPE["body_height"])
 
-        swept, alone = fitted((0.15,)), fitted(())
+        swept, alone = fitted([0.15]), fitted([])
         assert swept < 1e-9 and alone > 0.01
 
     def test_restarts_begin_at_the_best_scored_start(self, vase):
         from geocode.reconstruct.fit import fit
 
         program, recipe = vase
-        target = self.target(vase, Pose(turn=math.pi / 2))
+        target = self.target(vase, Placement(turn=math.pi / 2))
         starts = [Start(dict(self.SHAPE), turn=a) for a in (0.0, math.pi / 2, math.pi)]
-        result = fit(program, recipe, starts, target, budget=12, seed=0, restarts=1)
+        result = fit(program, recipe, starts, target, budget=12, tuning=CLOUD_FIT, seed=0, restarts=1)
         assert result.start == 1
         assert result.after <= result.before < 1e-3
 
@@ -220,7 +220,8 @@ def test_cloud_feedback_cancels_a_reading_biased_alike_on_every_cloud():
         return [{"width": 0.6 + 0.8 * (spread(c) - low) / (high - low) + 0.3} for c in clouds]
 
     cloud = turn_about_z(shape_points(slab, {"width": 1.0}), 0.5)   # the input, turned
-    starts = cloud_feedback(read, slab, slab, cloud, Start({"width": 0.7}, {}, turn=0.5), points_cfg, seed=0)
+    starts = cloud_feedback(read, slab, slab, cloud, Start({"width": 0.7}, {}, turn=0.5), points_cfg, seed=0,
+                            rounds=4)
     assert len(starts) == 4 and all(s.turn == 0.5 for s in starts)
     assert starts[0].values["width"] == pytest.approx(1.3, abs=0.06)
     assert starts[-1].values["width"] == pytest.approx(1.0, abs=0.03)

@@ -277,14 +277,14 @@ def test_the_network_answer_is_the_nearest_of_its_feedback_rounds(files):
     from geocode.config import compose
     from geocode.reconstruct.fit import network_starts
     from geocode.reconstruct.inputs import read_geometry
-    from geocode.reconstruct.run import TURNS, Reconstructor, s_pose
+    from geocode.reconstruct.run import TURNS, Reconstructor, start_placement
 
     run = Reconstructor(compose(["domain=vase"]), "vase", files["ckpt"], refine=0, up="z")
     result = run(files["root"] / "vase.obj")
     frame = run.frames(read_geometry(files["root"] / "vase.obj"))[0]
     _, start = run.best_answer(frame, network_starts(run.model, run.recipe, frame.cloud, TURNS, run.cfg.eval.decode))
     assert result.network == result.answers[0].chamfer
-    assert result.network <= run.score(frame, start.values, s_pose(start)) + 1e-12
+    assert result.network <= run.score(frame, start.values, start_placement(start)) + 1e-12
 
 
 def test_drawing_is_brought_to_the_sketch_format(files):
@@ -298,17 +298,20 @@ def test_drawing_is_brought_to_the_sketch_format(files):
 
 
 def test_fit_never_increases_the_distance_and_stays_in_range(files):
+    from geocode.config import compose, settings
+
     vase = Program.load("vase")
     recipe = vase.recipe()
     target = vase.evaluate(SHAPE)
     cloud = sample_surface(normalise_unit_sphere(target), 2000, np.random.default_rng(3))
     start = {p.name: p.default for p in vase.parameters}
     options = {"handle_count": [0.0, 2.0, 4.0]}
-    result = fit(vase, recipe, [Start(start, options)], cloud, budget=40, seed=0)
+    tuning = settings(compose([])).fit.cloud
+    result = fit(vase, recipe, [Start(start, options)], cloud, budget=40, tuning=tuning, seed=0)
     assert result.evaluations == 40
     assert result.after <= result.before
     fitted = result.pose.apply(shape_points(vase, result.values))
-    assert result.after == pytest.approx(CloudDistance(cloud)(fitted))
+    assert result.after == pytest.approx(CloudDistance(cloud, tuning.trim)(fitted))
     for p in recipe.parameters:
         assert p.min <= result.values[p.name] <= p.max
     assert result.values["handle_count"] in options["handle_count"]

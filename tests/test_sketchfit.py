@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 import trimesh
 
+from geocode.config import compose, settings
 from geocode.meshio import normalise_unit_sphere
 from geocode.program import Program
 from geocode.recipe import Parameter
@@ -35,11 +36,17 @@ from geocode.reconstruct.sketchfit import (
 )
 
 DOMAIN = "table"
+DRAWING_FIT = settings(compose([])).fit.drawing   # the config's defaults (conf/fit/default.yaml)
+
+
+def tuned(**changes):
+    """The config's drawing fit settings with `changes` (camera_guesses=..., say)."""
+    return DRAWING_FIT.model_copy(update=changes)
 
 
 def test_camera_space_starts_at_its_view_and_spans_the_ranges():
     start = View(40.0, 30.0, 0.0, 1.2, (3.0, -2.0))
-    space = CameraSpace(start)
+    space = CameraSpace(start, DRAWING_FIT)
     assert space.view(space.x0()) == View(40.0, 30.0, 0.0, pytest.approx(1.2), (3.0, -2.0))
     low, high = space.view(np.zeros(6)), space.view(np.ones(6))
     assert (low.azimuth, high.azimuth) == (-20.0, 100.0)
@@ -107,7 +114,7 @@ def test_fit_recovers_a_known_camera():
     values = {"count": 2.0}
     drawing = boxes_drawing(values, truth)
     result = fit_drawing(FIXED_BOXES, FIXED_BOXES, [Start(values, {"count": [2.0]})], drawing, budget=200,
-                         seed=0, guesses=((35.0, 30.0), (-35.0, 30.0), (90.0, 10.0)))
+                         seed=0, tuning=tuned(camera_guesses=((35.0, 30.0), (-35.0, 30.0), (90.0, 10.0))))
     assert result.after < 1.0 < result.before
     assert abs(result.camera.azimuth - 50.0) < 5 and abs(result.camera.elevation - 22.0) < 5
     assert result.camera.scale == pytest.approx(1.1, abs=0.08)
@@ -123,7 +130,8 @@ def test_fit_recovers_the_parameters_and_the_count():
     values = {"width": 1.3, "depth": 0.8, "count": 2.0}
     drawing = boxes_drawing(values, view)
     start = Start({"width": 1.1, "depth": 0.8, "count": 1.0}, {"count": [1.0, 2.0, 3.0]})
-    result = fit_drawing(BOXES, BOXES, [start], drawing, budget=200, seed=0, guesses=((35.0, 30.0),))
+    result = fit_drawing(BOXES, BOXES, [start], drawing, budget=200, seed=0,
+                         tuning=tuned(camera_guesses=((35.0, 30.0),)))
     assert result.values["count"] == 2.0
     assert result.values["width"] == pytest.approx(1.3, abs=0.12)
     assert result.after < 1.0 < result.before
@@ -146,7 +154,7 @@ def test_held_options_are_each_option_of_the_least_sure_parameter_the_shape_show
 def fake_finish(ends: dict, plan: list):
     """A stand-in for `finish_search` that ends each search at `ends[(count, switches_first)]`
     px, spending its whole budget, and notes (count, switches_first, the search's share)."""
-    def finish(recipe, draw, opening, budget, seed, switches_first):
+    def finish(recipe, tuning, draw, opening, budget, seed, switches_first):
         count = opening.start.values["count"]
         plan.append((count, switches_first, budget + len(opening.curve)))
         values = {**opening.start.values, "width": float(switches_first)}
@@ -166,7 +174,8 @@ def test_fit_answers_the_branch_whose_search_ends_nearest(monkeypatch):
     opened = sketchfit.open_search
     monkeypatch.setattr(sketchfit, "open_search", lambda *a: (openings.append(opened(*a)), openings[-1])[1])
     start = Start({"width": 1.0, "depth": 0.7, "count": 1.0}, {"count": [1.0, 2.0, 3.0]})
-    result = fit_drawing(BOXES, BOXES, [start], boxes_drawing(start.values, View()), budget=800, branches=3)
+    result = fit_drawing(BOXES, BOXES, [start], boxes_drawing(start.values, View()), budget=800, tuning=DRAWING_FIT,
+                         branches=3)
     assert plan == [(1.0, True, 266), (2.0, True, 267), (3.0, True, 267)]
     assert result.values["count"] == 2.0 and result.after == 0.5
     assert result.before == openings[0].before and result.start_camera == openings[0].view
@@ -187,32 +196,34 @@ def test_two_orders_search_each_branch_with_its_switches_judged_before_and_after
     start = Start({"width": 1.0, "depth": 0.7, "count": 1.0}, {"count": [1.0, 2.0]})
     drawing = boxes_drawing(start.values, View())
     guesses = ((35.0, 30.0),)
-    fit_drawing(BOXES, BOXES, [start], drawing, budget=600, seed=0, guesses=guesses, orders=2)
+    fit_drawing(BOXES, BOXES, [start], drawing, budget=600, seed=0, tuning=tuned(camera_guesses=guesses), orders=2)
     assert "".join(sweeps) == "dc" * 3 + "cd" * 3
     sweeps.clear()
-    fit_drawing(BOXES, BOXES, [start], drawing, budget=60, seed=0, guesses=guesses, orders=2)
-    assert "".join(sweeps) == "dc" * 3   # 60 evaluations give no search of BRANCH_BUDGET: one order
+    fit_drawing(BOXES, BOXES, [start], drawing, budget=60, seed=0, tuning=tuned(camera_guesses=guesses), orders=2)
+    assert "".join(sweeps) == "dc" * 3   # 60 evaluations give no search of branch_budget: one order
 
     ends = {(1.0, True): 1.0, (1.0, False): 1.0, (2.0, True): 1.0, (2.0, False): 0.5}
     monkeypatch.setattr(sketchfit, "finish_search", fake_finish(ends, plan))
-    result = fit_drawing(BOXES, BOXES, [start], drawing, budget=1000, guesses=guesses, branches=2, orders=2)
+    result = fit_drawing(BOXES, BOXES, [start], drawing, budget=1000, tuning=tuned(camera_guesses=guesses),
+                         branches=2, orders=2)
     assert plan == [(1.0, True, 250), (1.0, False, 250), (2.0, True, 250), (2.0, False, 250)]
     assert result.values["count"] == 2.0 and result.values["width"] == 0.0 and result.after == 0.5
     plan.clear()
-    fit_drawing(BOXES, BOXES, [start], drawing, budget=600, guesses=guesses, branches=2, orders=2)
+    fit_drawing(BOXES, BOXES, [start], drawing, budget=600, tuning=tuned(camera_guesses=guesses), branches=2,
+                orders=2)
     assert plan == [(1.0, True, 300), (1.0, False, 300)]
 
 
 def test_fit_keeps_the_trained_view_where_a_quarter_turn_draws_nearly_as_well():
     """A box of width 1.0 and depth 0.9 drawn from azimuth 55 is also a box of width 0.9 and
     depth 1.0 drawn from -35. From a start between the two (0.94 x 0.96), the view of -35 draws
-    0.9 px nearer (within VIEW_MARGIN), so the fit stays with the trained view and finds the
+    0.9 px nearer (within the view margin), so the fit stays with the trained view and finds the
     width and depth as drawn, in the program's frame."""
     truth = {"width": 1.0, "depth": 0.9, "count": 1.0}
     drawing = boxes_drawing(truth, View(55.0, 30.0))
     start = Start({"width": 0.94, "depth": 0.96, "count": 1.0}, {"count": [1.0]})
     result = fit_drawing(BOXES, BOXES, [start], drawing, budget=120, seed=0,
-                         guesses=((55.0, 30.0), (-35.0, 30.0)))
+                         tuning=tuned(camera_guesses=((55.0, 30.0), (-35.0, 30.0))))
     assert result.camera.azimuth == pytest.approx(55.0, abs=5)
     assert result.values["width"] > result.values["depth"]
     assert result.values["width"] == pytest.approx(1.0, abs=0.06)
@@ -220,7 +231,7 @@ def test_fit_keeps_the_trained_view_where_a_quarter_turn_draws_nearly_as_well():
 
 def test_only_views_far_from_the_trained_ones_start_with_the_margin():
     """Views beside a trained one (the test sets' third camera is 20 degrees off) compete
-    freely; a quarter-turn away, from below or behind, they carry VIEW_MARGIN."""
+    freely; a quarter-turn away, from below or behind, they carry the view margin."""
     assert all(near_trained_view(View(az, 30.0)) for az in (15.0, 20.0, 35.0, 45.0, 55.0, 70.0))
     assert not any(near_trained_view(View(az, el)) for az, el in
                    ((0.0, 30.0), (-35.0, 30.0), (90.0, 30.0), (215.0, 30.0), (35.0, 10.0)))
@@ -259,7 +270,7 @@ def test_fit_with_the_feedback_counts_its_rounds_and_starts_from_the_best():
     truth = {"width": 1.1, "depth": 0.8, "count": 1.0}
     drawing = boxes_drawing(truth, view)
     start = Start({**truth, "width": 0.7}, {"count": [1.0]})
-    kept = dict(budget=40, seed=0, guesses=((35.0, 30.0),))
+    kept = dict(budget=40, seed=0, tuning=tuned(camera_guesses=((35.0, 30.0),)))
     fed = fit_drawing(BOXES, BOXES, [start], drawing, read=biased_reader(view, 0.25), **kept)
     assert fed.evaluations == len(fed.curve) <= 40
     # the best round (not the network's start) is where the search went from
@@ -270,7 +281,7 @@ def test_fit_is_deterministic_and_never_worse_than_its_start():
     values = {"width": 1.0, "depth": 0.6, "count": 3.0}
     drawing = boxes_drawing(values, View(70.0, 15.0))
     start = Start({"width": 0.6, "depth": 1.2, "count": 3.0}, {"count": [3.0, 1.0]})
-    runs = [fit_drawing(BOXES, BOXES, [start], drawing, budget=60, seed=4) for _ in range(2)]
+    runs = [fit_drawing(BOXES, BOXES, [start], drawing, budget=60, tuning=DRAWING_FIT, seed=4) for _ in range(2)]
     assert runs[0].values == runs[1].values and runs[0].curve == runs[1].curve
     assert runs[0].after <= runs[0].before
 
@@ -289,7 +300,7 @@ def test_fit_brings_a_program_shape_nearer_its_drawing(program):
     drawing = render(normalise_unit_sphere(program.evaluate(truth)), View(35.0, 30.0))
     options = {p.name: list(dict.fromkeys([other[p.name], truth[p.name], p.min]))
                for p in recipe.parameters if p.kind != "float"}
-    result = fit_drawing(program, recipe, [Start(other, options)], drawing, budget=250, seed=0)
+    result = fit_drawing(program, recipe, [Start(other, options)], drawing, budget=250, tuning=DRAWING_FIT, seed=0)
     assert result.after < 0.75 * result.before
 
 
@@ -305,7 +316,7 @@ def test_helper_processes_give_the_same_drawing_fit(program):
     drawing = render(normalise_unit_sphere(program.evaluate(truth)), View(35.0, 30.0))
     for budget, orders in ((250, 1), (500, 2)):
         alone, shared = (fit_drawing(program, recipe, [Start(other)], drawing, budget=budget, seed=0,
-                                     guesses=((35.0, 30.0),), helpers=helpers, orders=orders)
+                                     tuning=tuned(camera_guesses=((35.0, 30.0),)), helpers=helpers, orders=orders)
                          for helpers in (0, 1))
         assert shared.curve == alone.curve and shared.values == alone.values and shared.camera == alone.camera
 

@@ -39,8 +39,9 @@ def words(kind) -> str:
     return next(str(m) for m in getattr(kind, "__metadata__", ()) if isinstance(m, Expect))
 
 
-def whole(low: int):
-    return Annotated[int, Field(ge=low), Expect(f"a whole number >= {low}")]
+def whole(low: int, high: float = math.inf):
+    text = f"a whole number >= {low}" + (f" and <= {high:g}" if high < math.inf else "")
+    return Annotated[int, Field(ge=low), Field(le=high if high < math.inf else None), Expect(text)]
 
 
 def number(low: float, high: float = math.inf, above: bool = False):
@@ -265,6 +266,61 @@ class Eval(Group):
                           "also fitted: a '+ fit' row or column")
 
 
+Steps = Annotated[list[number(0, 1, above=True)], Field(max_length=8),
+                  Expect("a list of at most 8 numbers > 0 and <= 1")]
+
+
+class CloudFit(Group):
+    """`geocode.reconstruct.fit`: the search for the program's shape nearest a cloud."""
+
+    sigma: number(0, 1, above=True) = key("CMA-ES's initial step, a share of each parameter's range")
+    trim: number(0, 0.5) = key("share of each direction's largest point distances the fit ignores "
+                               "(outliers, missing sides; 0: the plain Chamfer distance)")
+    restarts: whole(1, 20) = key("CMA-ES runs, each from one of the best starts, sharing the budget")
+    sweep_steps: Steps = key("one-parameter-at-a-time sweeps from the best start before CMA-ES, "
+                             "one per step, each a share of every range")
+    polish: whole(0, 100000) = key("evaluations kept back for sweeps from the best shape after CMA-ES (0: none)")
+    polish_steps: Steps = key("the steps of those last sweeps, shares of every range")
+    feedback: whole(0, 20) = key("rounds of the network's own correction of its answer to a reconstructed "
+                                 "cloud, each round a start of the fit")
+
+
+Views = Annotated[list[Annotated[list[number(-360, 360)], Field(min_length=2, max_length=2)]],
+                  Field(min_length=1, max_length=64),
+                  Expect("a list of 1 to 64 [azimuth, elevation] pairs in degrees")]
+
+
+class DrawingFit(Group):
+    """`geocode.reconstruct.sketchfit`: the search for the parameters and camera whose line drawing is
+    nearest a drawing."""
+
+    camera_guesses: Views = key("the views [azimuth, elevation] every start is drawn from, each framed twice")
+    view_margin: number(0, 100) = key("px by which a start from a view more than 20 degrees from the "
+                                      "dataset's trained ones must beat theirs")
+    azimuth_span: number(0, 180) = key("degrees either side of a start's azimuth that the search may turn")
+    max_elevation: number(0, 90, above=True) = key("the searched elevations: 0 to this many degrees")
+    max_roll: number(0, 45) = key("degrees of image roll either way")
+    scale_span: number(1, 4) = key("the scale searched within [s / span, s * span] of a start's s")
+    shift_span: number(0, 112) = key("px of image shift either way of a start's (a wider span lets the fit "
+                                     "trade shape for shift)")
+    branch_budget: whole(1, 100000) = key("evaluations a branch (eval.sketch_fit_branches) needs at least")
+    feedback: whole(0, 20) = key("rounds of the network's own correction of its answer on the best start")
+    sweep_steps: Steps = key("one-coordinate-at-a-time sweeps before CMA-ES, one per step, each a share "
+                             "of every range")
+    sigma: number(0, 1, above=True) = key("CMA-ES's initial step on a parameter, a share of its range")
+    camera_sigma: Annotated[list[number(0, 1, above=True)], Field(min_length=6, max_length=6),
+                            Expect("6 numbers > 0 and <= 1")] = key(
+        "... on the camera's azimuth, elevation, roll, scale, shift x, shift y, shares of their spans")
+    prior: number(0, 100) = key("px added per squared unit-box move of the parameters from the start: where "
+                                "the drawing does not tell, the network's answer stands")
+    camera_prior: number(0, 100) = key("... of the camera's coordinates from the start's view")
+
+
+class Fit(Group):
+    cloud: CloudFit
+    drawing: DrawingFit
+
+
 class Domain(Group):
     name: Name = key("the domain a step works on (choose it with domain=<name>)")
 
@@ -289,6 +345,7 @@ class Settings(Group):
     model: Model
     train: Train
     eval: Eval
+    fit: Fit
 
     @model_validator(mode="after")
     def _eval_camera_trains(self):

@@ -8,6 +8,8 @@
     real      `geocode reconstruct` on real shapes, against its baselines; its pose under turns
               (`bench turns`)
     span      how near a program comes to real shapes, by a long fit without the network
+    up        the cue weights of `--up auto`: fitted and measured on program shapes
+              (`python -m geocode.bench.up fit | measure | real DIR`)
 
 A benchmark that measures a run's shapes (fit, turns) reads the validation split unless told
 otherwise: defaults are chosen there, and the tables report the test split.

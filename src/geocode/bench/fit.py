@@ -12,6 +12,7 @@ import numpy as np
 
 from geocode import paths
 from geocode.checkpoints import default_checkpoint, load_model, ranked_prediction
+from geocode.config import settings
 from geocode.meshio import read_obj
 from geocode.metrics import chamfer_meshes
 from geocode.program import Program
@@ -25,6 +26,7 @@ def bench_fit(cfg, domain: str, n: int = 20, split: str = "val", budget: int | N
     search), and measure against the ground truth. budget: the fit's evaluations (default
     eval.fit_budget)."""
     budget = cfg.eval.fit_budget if budget is None else budget
+    tuning = settings(cfg).fit.cloud
     program = Program.load(domain)
     recipe = program.recipe()
     model = load_model(default_checkpoint(cfg, domain), recipe=recipe)
@@ -34,7 +36,7 @@ def bench_fit(cfg, domain: str, n: int = 20, split: str = "val", budget: int | N
         cloud = clean_cloud(cfg, domain, split, shape_id)
         gt = read_obj(paths.shape_file(shapes, shape_id))
         start, options = ranked_prediction(model, recipe, "points", cloud, cfg.eval.decode)
-        result = fit(program, recipe, [Start(start, options)], cloud, budget, seed=cfg.seed, pose=False)
+        result = fit(program, recipe, [Start(start, options)], cloud, budget, tuning, seed=cfg.seed, pose=False)
         for values, out in ((program.check(start), before), (result.values, after)):
             rng = np.random.default_rng(0)
             out.append(chamfer_meshes(program.evaluate(values), gt, n=cfg.eval.chamfer_points, rng=rng))

@@ -32,9 +32,9 @@ from pathlib import Path
 import yaml
 
 from geocode.errors import UserError
-from geocode.reconstruct.fit import Pose
+from geocode.reconstruct.fit import Placement
 
-QUARTER_TURNS = [Pose(turn=k * math.pi / 2) for k in range(4)]
+QUARTER_TURNS = [Placement(turn=k * math.pi / 2) for k in range(4)]
 
 
 def read_up_truth(path: Path | None) -> list[tuple[str, str]]:

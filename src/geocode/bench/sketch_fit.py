@@ -20,7 +20,7 @@ import numpy as np
 
 from geocode import paths
 from geocode.checkpoints import default_checkpoint, load_model, ranked_prediction, reader
-from geocode.config import sketch_fit_budget, sketch_fit_searches
+from geocode.config import settings, sketch_fit_budget, sketch_fit_searches
 from geocode.meshio import read_obj
 from geocode.metrics import chamfer_meshes
 from geocode.program import Program
@@ -41,6 +41,7 @@ def bench_sketch_fit(cfg, domain: str, n: int = 10, camera: str = "trained", spl
     fit and both rebuilds included). budget: the fit's evaluations (default: the domain's
     eval.sketch_fit_budget)."""
     budget = sketch_fit_budget(cfg, domain) if budget is None else budget
+    tuning = settings(cfg).fit.drawing
     program = Program.load(domain)
     recipe = program.recipe()
     checkpoint = default_checkpoint(cfg, domain)
@@ -54,7 +55,7 @@ def bench_sketch_fit(cfg, domain: str, n: int = 10, camera: str = "trained", spl
             gt = read_obj(paths.shape_file(paths.shapes_dir(folder), shape_id))
             drawing = load_sketch(drawing_file(cfg, domain, split, shape_id, gt, cams[k % len(cams)], Path(tmp)))
             start, options = ranked_prediction(model, recipe, "sketch", drawing, cfg.eval.decode)
-            result = fit_drawing(program, recipe, [Start(start, options)], drawing, budget, seed=cfg.seed,
+            result = fit_drawing(program, recipe, [Start(start, options)], drawing, budget, tuning, seed=cfg.seed,
                                  read=reader(model, recipe, "sketch"), **sketch_fit_searches(cfg, domain))
             for values, out in ((program.check(start), before), (result.values, after)):
                 out.append(chamfer_meshes(program.evaluate(values), gt, n=cfg.eval.chamfer_points,

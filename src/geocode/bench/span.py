@@ -55,41 +55,41 @@ def switch_starts(defaults: dict[str, float], options: dict[str, list[float]], t
             for name, vals in options.items() for v in vals if v != defaults[name]]
 
 
-def span_fit(program, recipe, target: np.ndarray, budget: int, seed: int):
+def span_fit(program, recipe, target: np.ndarray, budget: int, tuning, seed: int):
     """The fit from the defaults and their one-switch forms at each of reconstruct's TURNS
     turns (one evaluation each), then, at the turn of the best of them, from the other forms
     and POOL random shapes, judged by short fits (`judged_by_short_fits`), and a long one from
-    the best: `budget` evaluations in all. A turn judged by the defaults alone can be lost to a
-    form they lack: a long coffee table's turn went to a diagonal, from which its fit never
-    came back (docs/design.md#span)."""
+    the best: `budget` evaluations in all, each fit as `tuning` (fit.cloud) says. A turn judged
+    by the defaults alone can be lost to a form they lack: a long coffee table's turn went to a
+    diagonal, from which its fit never came back (docs/design.md#span)."""
     from geocode.reconstruct.run import TURNS
 
     defaults, options = program.check({}), all_options(recipe)
     forms = [start_at(defaults, options, 0.0), *switch_starts(defaults, options, 0.0)]
     judged = [replace(s, turn=k * 2 * math.pi / TURNS) for k in range(TURNS) for s in forms]
-    first = fit(program, recipe, judged, target, min(len(judged), max(1, budget - 1)), seed=seed,
+    first = fit(program, recipe, judged, target, min(len(judged), max(1, budget - 1)), tuning, seed=seed,
                 restarts=0)
     chosen = judged[first.start]
     rng = np.random.default_rng(seed)
     pool = [start_at(program.random_values(rng), options, chosen.turn) for _ in range(POOL)]
     starts = [chosen, *(s for s in judged if s.turn == chosen.turn and s is not chosen), *pool]
     left = budget - first.evaluations
-    ranked, used = judged_by_short_fits(program, recipe, starts, target, left - 1, seed)
+    ranked, used = judged_by_short_fits(program, recipe, starts, target, left - 1, tuning, seed)
     # a budget under the number of starts scores the first ones only (`fit`)
-    result = fit(program, recipe, ranked[:FINALISTS], target, max(1, left - used), seed=seed,
+    result = fit(program, recipe, ranked[:FINALISTS], target, max(1, left - used), tuning, seed=seed,
                  restarts=FINALISTS)
     result.evaluations += first.evaluations + used
     return result
 
 
-def judged_by_short_fits(program, recipe, starts: list[Start], target: np.ndarray, budget: int,
+def judged_by_short_fits(program, recipe, starts: list[Start], target: np.ndarray, budget: int, tuning,
                          seed: int) -> tuple[list[Start], int]:
     """The starts ranked by their first evaluation, then each round of HALVING: the best `kept`
     fitted for `each` evaluations, ranked by where they end and started again from there; at
     most `budget` evaluations. Returns the ranking and the evaluations spent."""
     if budget < 1:
         return starts, 0
-    scored = fit(program, recipe, starts, target, min(len(starts), budget), seed=seed, restarts=0)
+    scored = fit(program, recipe, starts, target, min(len(starts), budget), tuning, seed=seed, restarts=0)
     used = scored.evaluations
     ranked = [starts[i] for i in np.argsort(scored.scores, kind="stable")]
     options = all_options(recipe)
@@ -98,7 +98,7 @@ def judged_by_short_fits(program, recipe, starts: list[Start], target: np.ndarra
         for start in ranked[:kept]:
             if used >= budget:
                 break
-            short = fit(program, recipe, [start], target, min(each, budget - used), seed=seed,
+            short = fit(program, recipe, [start], target, min(each, budget - used), tuning, seed=seed,
                         restarts=1)
             used += short.evaluations
             ends.append((short.after, start_at(short.values, options, short.pose.turn)))
@@ -133,7 +133,7 @@ def bench_span(overrides: list[str], domain: str, folder: Path, budget: int | No
         geometry = read_geometry(path)
         run.up = true_up(path.name, table) or "auto"
         frame = run.frames(geometry)[0]
-        result = span_fit(run.program, run.recipe, frame.samples[:4096], budget, run.cfg.seed)
+        result = span_fit(run.program, run.recipe, frame.samples[:4096], budget, run.tuning.cloud, run.cfg.seed)
         answer = Answer(result.values, result.pose, run.score(frame, result.values, result.pose))
         seconds = time.perf_counter() - started
         rows.append({"file": path.name, "chamfer": round(answer.chamfer, 6), "seconds": round(seconds, 1),

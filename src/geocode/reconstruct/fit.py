@@ -13,7 +13,10 @@ discrete parameter's other choices, then each continuous parameter +-a step, one
 kept where they help; none spent on a part the shape lacks), then CMA-ES runs from the best
 few starts (the network's answer at several turns of the input, its feedback rounds, the
 nearest training shapes), and last
-sweeps of smaller steps from the best shape found. The sweeps make the fit end near the same
+sweeps of smaller steps from the best shape found. How it searches (CMA-ES's step, the trim,
+the restarts, the sweeps' steps, the feedback's rounds) is the config's fit.cloud
+(`settings.CloudFit`, conf/fit/default.yaml); what stays here fixes the objective and the
+pose's limits. The sweeps make the fit end near the same
 shape from nearby starts: on the first 10 test chairs, each fitted as given and turned by 137
 degrees (whose starts differ a little), CMA-ES alone ended within 1.2x of itself on 5 of 10
 and with the sweeps on 10 of 10, at a lower median distance (docs/design.md#pose-and-sampling). The fit
@@ -37,28 +40,27 @@ from geocode.meshio import unit_sphere_vertices
 from geocode.metrics import Cells, bucket, cell_side, nearest
 from geocode.points import surface_samples
 from geocode.reconstruct.pose import turn_z
+from geocode.settings import CloudFit
 
-FIT_POINTS = 2048    # points sampled on each candidate (fixed seed: a deterministic objective)
-SIGMA = 0.15         # CMA-ES's initial step, in units of each coordinate's range
-TRIM = 0.02          # share of each direction's largest distances the fit ignores
-RESTARTS = 2         # CMA-ES runs, from the best starts
+# Not settings: these fix the objective (what a distance means) and keep the pose sane.
+FIT_POINTS = 2048    # points sampled on each candidate (fixed seed: a deterministic objective,
+                     # its distances comparable between fits)
 ALIGN_STEPS = 3      # closed-form pose steps per evaluation (`align`) ...
 ALIGN_POINTS = 1024  # ... each pairing this many points of either cloud (a pose of five numbers
                      # needs few; the distance it returns uses them all)
-MAX_TURN = math.pi / 6   # how far `align` may turn a shape from its start's turn
-SCALE_RANGE = 1.3        # ... and scale it (a factor in [1/1.3, 1.3])
-SWEEP_STEPS = (0.15, 0.075, 0.04)   # sweeps from the best start before CMA-ES, by these shares of each range
-POLISH = 200             # evaluations kept for sweeps from the best shape found after CMA-ES ...
-POLISH_STEPS = (0.03, 0.015)         # ... by these steps
-FEEDBACK = 4             # rounds of `cloud_feedback`, each a start of the fit ...
-FEEDBACK_POINTS = 4096   # ... from this many surface points of its shape
-SNAP = 1e-3              # starts' continuous values are rounded to this share of each range
+MAX_TURN = math.pi / 6   # how far `align` may turn a shape from its start's turn: the starts'
+                         # turns lie 45 degrees apart (reconstruct's TURNS), the guard against a
+                         # pose that runs off to a degenerate fit
+SCALE_RANGE = 1.3        # ... and scale it (a factor in [1/1.3, 1.3]), for the same reason
+FEEDBACK_POINTS = 4096   # surface points of each feedback round's shape, as the dataset samples them
+SNAP = 1e-3              # starts' continuous values are rounded to this share of each range, so
+                         # that readings 1e-7 apart give the same fit (`snapped`)
 
 
 @dataclass(frozen=True)
-class Pose:
-    """Where the program's unit-sphere shape sits against the input: turned by `turn`
-    radians about +Z, scaled, then offset."""
+class Placement:
+    """Where the program's unit-sphere shape sits against the input (in the input's canonical
+    frame, `pose.Pose`'s output): turned by `turn` radians about +Z, scaled, then offset."""
 
     turn: float = 0.0
     scale: float = 1.0
@@ -75,11 +77,11 @@ class Pose:
         m = self.matrix()
         return np.asarray(points, dtype=np.float64) @ m[:3, :3].T + m[:3, 3]
 
-    def then(self, other: Pose) -> Pose:
-        """This pose followed by `other`."""
+    def then(self, other: Placement) -> Placement:
+        """This placement followed by `other`."""
         offset = other.scale * turn_z(math.degrees(other.turn)) @ np.asarray(self.offset) + np.asarray(other.offset)
-        return Pose(turn=self.turn + other.turn, scale=self.scale * other.scale,
-                    offset=tuple(float(o) for o in offset))
+        return Placement(turn=self.turn + other.turn, scale=self.scale * other.scale,
+                         offset=tuple(float(o) for o in offset))
 
     def to_dict(self) -> dict:
         return {"turn_deg": round(math.degrees(self.turn) % 360, 2), "scale": round(self.scale, 4),
@@ -100,14 +102,14 @@ class Start:
 @dataclass
 class FitResult:
     values: dict[str, float]   # every program parameter, raw
-    pose: Pose                 # where the shape sits against the input
+    pose: Placement            # where the shape sits against the input
     before: float              # the best start's distance to the target (the fit's objective)
     after: float               # ... the fitted shape's (<= before)
     evaluations: int
     seconds: float
     start: int = 0             # index of the start the best shape came from
     curve: list[float] = field(default_factory=list)   # best distance after each evaluation
-    found: list[tuple[dict[str, float], Pose]] = field(default_factory=list)  # each run's best
+    found: list[tuple[dict[str, float], Placement]] = field(default_factory=list)  # each run's best
     scores: list[float] = field(default_factory=list)   # each start's own distance, in order
 
 
@@ -130,7 +132,7 @@ class CloudDistance:
     missing underside or back), as long as they are under that share of the shape.
     """
 
-    def __init__(self, target: np.ndarray, trim: float = TRIM):
+    def __init__(self, target: np.ndarray, trim: float):
         self.target = np.asarray(target, dtype=np.float64)
         self.cells = Cells(self.target)
         self.coarse = self.target[:ALIGN_POINTS]       # what `align` pairs (random order)
@@ -188,8 +190,8 @@ class SearchSpace:
         return self.recipe.shown(self.values(x[:len(self.continuous) + len(self.discrete)]))
 
 
-def align(points: np.ndarray, distance: CloudDistance, pose: Pose,
-          steps: int = ALIGN_STEPS) -> Pose:
+def align(points: np.ndarray, distance: CloudDistance, pose: Placement,
+          steps: int = ALIGN_STEPS) -> Placement:
     """`pose` refined so that the posed `points` lie on the distance's target: each step pairs
     each of ALIGN_POINTS points of either cloud (random samples) with its nearest in the other
     (the `trim` share of farthest pairs dropped) and solves for the best turn about +Z, scale
@@ -202,7 +204,7 @@ def align(points: np.ndarray, distance: CloudDistance, pose: Pose,
                                        steps, distance.trim)
     turn = pose.turn + float(np.clip(turn - pose.turn, -MAX_TURN, MAX_TURN))
     scale = float(np.clip(scale / pose.scale, 1 / SCALE_RANGE, SCALE_RANGE)) * pose.scale
-    return Pose(turn=turn, scale=scale, offset=tuple(float(o) for o in offset))
+    return Placement(turn=turn, scale=scale, offset=tuple(float(o) for o in offset))
 
 
 @numba.njit(cache=True, nogil=True)
@@ -247,10 +249,10 @@ def _align_steps(points, side, target, target_grid, turn, scale, offset, steps, 
 
 
 def score(program, distance: CloudDistance, pose: bool, values: Mapping[str, float],
-          turn: float) -> tuple[float, Pose]:
+          turn: float) -> tuple[float, Placement]:
     """One candidate's distance to the target and where it sits: sampled, aligned (with
     `pose`, else at its start's turn) and measured; inf for a combination the program refuses."""
-    where = Pose(turn=turn)
+    where = Placement(turn=turn)
     try:
         points = shape_points(program, values)
     except ValueError:
@@ -271,7 +273,7 @@ class Scorer:
         self.pool = helper_pool(program.domain, helpers) if helpers > 0 else None
         self.token = uuid.uuid4().hex     # which target the helpers' cached distance is for
 
-    def __call__(self, batch: list[tuple[dict, float]]) -> list[tuple[float, Pose]]:
+    def __call__(self, batch: list[tuple[dict, float]]) -> list[tuple[float, Placement]]:
         return share_out(self.pool, self.helpers, batch,
                          lambda item: score(self.program, self.distance, self.pose, *item),
                          _helper_score, self.token, self.target, self.trim, self.pose)
@@ -330,25 +332,26 @@ def helper_state(token: str, make):
 
 
 def _helper_score(token: str, target: np.ndarray, trim: float, pose: bool,
-                  batch: list[tuple[dict, float]]) -> list[tuple[float, Pose]]:
+                  batch: list[tuple[dict, float]]) -> list[tuple[float, Placement]]:
     program, distance = helper_state(token, lambda _: CloudDistance(target, trim))
     return [score(program, distance, pose, v, t) for v, t in batch]
 
 
-def fit(program, recipe, starts: Sequence[Start], target: np.ndarray, budget: int,
-        seed: int = 0, trim: float = TRIM, restarts: int = RESTARTS,
-        pose: bool = True, helpers: int = 0) -> FitResult:
+def fit(program, recipe, starts: Sequence[Start], target: np.ndarray, budget: int, tuning: CloudFit,
+        seed: int = 0, restarts: int | None = None, pose: bool = True, helpers: int = 0) -> FitResult:
     """Search at most `budget` program evaluations for the shape nearest `target` (N, 3), a
-    cloud on the unit sphere with +Z up; with `pose`, each candidate is first aligned to the
-    target (`align`), else it keeps its start's turn. Every start is scored first; CMA-ES then
-    runs from the best `restarts` of them, sharing what is left of the budget. `helpers`:
-    processes that score candidates beside this one (`Scorer`)."""
+    cloud on the unit sphere with +Z up, as `tuning` (the config's fit.cloud) says; with
+    `pose`, each candidate is first aligned to the target (`align`), else it keeps its start's
+    turn. Every start is scored first; CMA-ES then runs from the best `restarts` of them
+    (default tuning.restarts), sharing what is left of the budget. `helpers`: processes that
+    score candidates beside this one (`Scorer`)."""
     started = time.perf_counter()
-    scorer = Scorer(program, target, trim, pose, helpers)
+    restarts = tuning.restarts if restarts is None else restarts
+    scorer = Scorer(program, target, tuning.trim, pose, helpers)
     spaces = [SearchSpace(recipe, Start(program.check(snapped(recipe, s.values)), s.options, s.turn))
               for s in starts[:max(1, budget)]]
     curve: list[float] = []
-    found: dict[int, tuple[float, np.ndarray, Pose]] = {}   # start -> its best (f, x, pose)
+    found: dict[int, tuple[float, np.ndarray, Placement]] = {}   # start -> its best (f, x, pose)
 
     def evaluate(candidates: Sequence[tuple[int, np.ndarray]]) -> list[float]:
         """The distances of candidates (start i, x), scored in one batch (inf where the
@@ -359,7 +362,7 @@ def fit(program, recipe, starts: Sequence[Start], target: np.ndarray, budget: in
         scored = dict(zip(valid, scorer(batch), strict=True))
         out = []
         for k, (i, x) in enumerate(candidates):
-            value, where = scored.get(k, (math.inf, Pose(turn=spaces[i].start.turn)))
+            value, where = scored.get(k, (math.inf, Placement(turn=spaces[i].start.turn)))
             if value < found.get(i, (np.inf,))[0]:
                 found[i] = (value, np.asarray(x), where)
             curve.append(min(value, curve[-1]) if curve else value)
@@ -376,11 +379,11 @@ def fit(program, recipe, starts: Sequence[Start], target: np.ndarray, budget: in
         def batch(xs: Sequence[np.ndarray], i: int = int(i)) -> list[float]:
             return evaluate([(i, x) for x in xs])
 
-        for step in SWEEP_STEPS if r == 0 else ():
+        for step in tuning.sweep_steps if r == 0 else ():
             x, f = sweep_discrete(batch, spaces[i], x, f, budget - len(curve))
             x, f = sweep_continuous(batch, spaces[i], x, f, budget - len(curve), step)
-        share = (budget - POLISH - len(curve)) // (len(runs) - r)
-        y, g = cma_search(batch, x, share, seed + r)
+        share = (budget - tuning.polish - len(curve)) // (len(runs) - r)
+        y, g = cma_search(batch, x, share, seed + r, tuning.sigma)
         x, f = (y, g) if g < f else (x, f)
         if f < best:
             best, best_x, best_i = f, x, int(i)
@@ -388,7 +391,7 @@ def fit(program, recipe, starts: Sequence[Start], target: np.ndarray, budget: in
     def polish(xs: Sequence[np.ndarray]) -> list[float]:
         return evaluate([(best_i, x) for x in xs])
 
-    for step in POLISH_STEPS if POLISH else ():
+    for step in tuning.polish_steps if tuning.polish else ():
         best_x, best = sweep_discrete(polish, spaces[best_i], best_x, best, budget - len(curve))
         best_x, best = sweep_continuous(polish, spaces[best_i], best_x, best, budget - len(curve), step)
     runs_found = [(spaces[i].values(found[i][1]), found[i][2]) for i in runs if i in found]
@@ -438,9 +441,10 @@ def network_feedback(read, render, recipe, wanted: Mapping[str, float], values: 
 
 
 def cloud_feedback(read, program, recipe, cloud: np.ndarray, start: Start, points_cfg, seed: int,
-                   rounds: int = FEEDBACK) -> list[Start]:
+                   rounds: int) -> list[Start]:
     """`network_feedback` on a cloud, as starts of the fit: the network reads the input `cloud`
-    (its canonical cloud, as it saw it) turned to `start`'s turn beside each round's shape,
+    (its canonical cloud, as it saw it) turned to `start`'s turn beside each of `rounds` rounds'
+    shapes (the config's fit.cloud.feedback),
     sampled as its clouds are (FEEDBACK_POINTS surface points, then `points.network_cloud`).
     On the eight development cabinets these starts took the fit 0-7% nearer on every file
     (median 0.706x -> 0.679x the nearest training shape; docs/design.md#network-feedback)."""
@@ -459,11 +463,11 @@ def cloud_feedback(read, program, recipe, cloud: np.ndarray, start: Start, point
     return [Start(values, start.options, start.turn) for values, _ in rounds_found]
 
 
-def cma_search(objective, x0: np.ndarray, budget: int, seed: int,
-               stds: np.ndarray | None = None) -> tuple[np.ndarray, float]:
+def cma_search(objective, x0: np.ndarray, budget: int, seed: int, sigma: float,
+               stds: Sequence[float] | None = None) -> tuple[np.ndarray, float]:
     """The best (x, f) CMA-ES finds within `budget` evaluations from x0 in the unit box;
     `objective` takes a generation's candidates and gives their values (inf for an invalid
-    shape). Initial step SIGMA, or `stds` per coordinate."""
+    shape). Initial step `sigma`, times `stds` per coordinate where given."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")   # cma warns that matplotlib (plots only) is missing
         import cma
@@ -475,7 +479,7 @@ def cma_search(objective, x0: np.ndarray, budget: int, seed: int,
                "tolfun": 0.0, "tolx": 1e-6}
     if stds is not None:
         options["CMA_stds"] = list(stds)
-    es = cma.CMAEvolutionStrategy(x0, SIGMA if stds is None else 1.0, options)
+    es = cma.CMAEvolutionStrategy(x0, sigma, options)
     while used < budget and not es.stop():
         xs = es.ask()
         fs = objective(xs[: budget - used])   # the budget may end inside a generation
@@ -548,7 +552,7 @@ def sweep_continuous(objective, space: SearchSpace, x: np.ndarray, f: float, bud
 
 def turn_about_z(points: np.ndarray, angle: float) -> np.ndarray:
     """Points turned by `angle` radians about +Z."""
-    return Pose(turn=angle).apply(points)
+    return Placement(turn=angle).apply(points)
 
 
 def network_starts(model, recipe, cloud: np.ndarray, turns: int, decode: str,

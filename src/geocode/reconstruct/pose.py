@@ -175,22 +175,30 @@ def axis_features(points: np.ndarray) -> np.ndarray:
     return np.array(rows)
 
 
-# Weights of the cues (columns of `axis_features`), fitted by a softmax over the six axes
-# (L2 1e-2) on program shapes: 20 random shapes a domain, each turned by 12 of the 24 axis
-# rotations, rescaled, moved, clean / underside cut and one side missing / 1% noise and 2%
-# outliers. One set per domain, because the cues point opposite ways across domains (a
-# table's mass is near its top, a hanging lamp's near its bottom); "" for any shape.
-# Refit with scripts/fit_up_weights.py when the cues or the programs change (last: when
-# the programs grew to real forms, issue 24: pendant and flush lamps, wide cabinets, ...).
+# The cues of `axis_features`, by column (its docstring says what each measures), each read
+# as if that axis were up: asymmetry across the axis and under a half turn about it, the
+# bottom slab's spread, share of points and fill less the top's, the centre of mass's height,
+# the extent along the axis, how far from round its cross-sections are, and the mass in each
+# of HEIGHT_BINS heights.
+CUES = ("mirror", "half_turn", "slab_spread", "slab_share", "mass_height", "extent", "roundness",
+        "slab_fill", *(f"height_{k}" for k in range(HEIGHT_BINS)))
+
+# The weight of each cue (in CUES' order) in an axis's score, for each domain ("": any shape):
+# one set per domain, because the cues point opposite ways across domains (a table's mass is
+# near its top, a hanging lamp's near its bottom). They are what `python -m geocode.bench.up fit`
+# prints: a softmax over the six axes (weight decay 1e-2) fitted on program shapes, 20 random
+# shapes a domain, each clean, cut as a scan (no underside, one side missing), noisy (1% noise,
+# 2% outliers) and both, each turned by 3 of the 24 axis rotations, rescaled and moved. Refit
+# them when the cues or the programs change, and compare with `... measure` and `... real`.
 WEIGHTS = {
-    "": (1.61, -1.88, 0.53, -1.48, 0.63, 0.87, -1.78, -0.61, -0.09, -0.14, -0.47, 0.10, -0.11, -0.17, -0.14, 1.02),
-    "chair": (1.03, -1.03, 2.04, 0.27, 0.14, 1.94, -2.00, -1.74, -0.15, -0.63, -0.40, 0.69, 0.86, 0.14, -0.26, -0.25),
-    "vase": (0.93, -1.60, 0.48, 0.78, -0.38, -1.42, -3.09, -0.59, 1.13, -0.31, -0.49, 0.33, -0.59, -0.26, 0.08, 0.10),
-    "table": (1.68, -1.59, -0.85, -1.29, 1.41, -0.47, -0.36, 0.51, -0.79, -0.42, -0.21, -0.29, -0.29, -0.13,
-              0.62, 1.51),
-    "ceiling_lamp": (1.83, -1.67, -0.54, -1.10, -1.54, 0.40, -1.35, 0.32, 1.69, 1.32, 0.06, -0.43, -0.54, -0.83,
-                     -1.73, 0.45),
-    "cabinet": (1.19, -1.28, 0.02, -2.14, 1.80, 2.78, -0.05, 0.35, -1.21, -0.44, -0.81, -0.00, -0.22, 0.70, 0.76, 1.23),
+    "": (1.58, -1.29, 0.58, -1.46, 0.52, 0.85, -1.77, -0.74, -0.02, -0.11, -0.21, 0.37, -0.58, -0.65, 0.02, 1.18),
+    "chair": (1.10, -1.07, 1.85, 0.23, -0.16, 1.76, -2.11, -2.08, -0.07, -0.48, 0.20, 1.31, -0.32, -0.40, -0.10, -0.15),
+    "vase": (1.08, -1.54, 0.56, 0.67, -0.28, -1.30, -3.00, -0.36, 1.06, -0.44, -0.51, 0.40, -0.53, -0.25, 0.20, 0.06),
+    "table": (1.66, -1.61, -0.91, -1.25, 1.36, -0.45, -0.42, 0.72, -0.77, -0.38, -0.21, -0.29, -0.30, -0.17, 0.62,
+              1.49),
+    "ceiling_lamp": (1.80, -1.66, -0.39, -0.90, -1.64, 0.25, -1.29, 0.11, 1.55, 1.44, 0.47, -0.45, -0.72, -1.08, -1.71,
+                     0.50),
+    "cabinet": (1.43, 0.87, 0.85, -2.18, 1.76, 2.82, 0.19, -0.01, -0.95, -0.54, -0.77, -0.19, -0.06, 0.23, 0.87, 1.42),
 }
 
 

@@ -37,10 +37,9 @@ from geocode.meshio import normalise_unit_sphere
 from geocode.points import network_cloud
 from geocode.reconstruct import pose as poses
 from geocode.reconstruct.fit import (
-    RESTARTS,
     CloudDistance,
     FitResult,
-    Pose,
+    Placement,
     Start,
     cloud_feedback,
     fit,
@@ -124,7 +123,7 @@ class Answer:
     """One fitted program: raw values, where it sits on the canonical input, its distance."""
 
     values: dict[str, float]
-    where: Pose
+    where: Placement
     chamfer: float
 
 
@@ -153,6 +152,7 @@ class Reconstructor:
                  workers: int | None = None):
         from geocode import paths
         from geocode.checkpoints import default_checkpoint, load_model
+        from geocode.config import settings
         from geocode.program import Program
 
         self.cfg, self.domain, self.up, self.candidates = cfg, domain, up, candidates
@@ -162,6 +162,7 @@ class Reconstructor:
         self.recipe = self.program.recipe()
         self.refine_given = refine
         self.refine = cfg.eval.reconstruct_budget if refine is None else refine
+        self.tuning = settings(cfg).fit           # how the fits search (fit.cloud, fit.drawing)
         self.model = self.training = None
         if not model:                             # the pose and the scores alone (bench span)
             return
@@ -198,13 +199,14 @@ class Reconstructor:
 
         sketch = sketch_from_image(path)
         values, options = ranked_prediction(self.model, self.recipe, "sketch", sketch, self.cfg.eval.decode)
-        network = Answer(self.program.check(values), Pose(), math.nan)
+        network = Answer(self.program.check(values), Placement(), math.nan)
         result = Reconstruction(path, "drawing", [network], drawing=sketch)
         budget = sketch_fit_budget(self.cfg, self.domain) if self.refine_given is None else self.refine_given
         if budget == 0:
             return result
         found = fit_drawing(self.program, self.recipe, [Start(values, options)], sketch, budget,
-                            seed=self.cfg.seed, helpers=self.helpers, read=reader(self.model, self.recipe, "sketch"),
+                            self.tuning.drawing, seed=self.cfg.seed, helpers=self.helpers,
+                            read=reader(self.model, self.recipe, "sketch"),
                             **sketch_fit_searches(self.cfg, self.domain))
 
         def scored(values: dict, camera) -> tuple[float, np.ndarray]:
@@ -213,7 +215,7 @@ class Reconstructor:
 
         result.network, _ = scored(network.values, found.start_camera)
         after, result.result_drawing = scored(found.values, found.camera)
-        result.answers = [Answer(self.program.check(found.values), Pose(), after)]
+        result.answers = [Answer(self.program.check(found.values), Placement(), after)]
         result.camera = found.camera
         result.summary.update(camera=asdict(found.camera), drawing_before=round(result.network, 3),
                               drawing_after=round(after, 3), evaluations=found.evaluations)
@@ -234,7 +236,8 @@ class Reconstructor:
         if self.refine > 0:   # the fit
             starts = answers[i] + self.nearest_starts(frame, answers[i]) + feedback
             result.fit = fit(self.program, self.recipe, starts, frame.samples[:TARGET_POINTS],
-                             self.refine, seed=self.cfg.seed, restarts=max(RESTARTS, self.candidates),
+                             self.refine, self.tuning.cloud, seed=self.cfg.seed,
+                             restarts=max(self.tuning.cloud.restarts, self.candidates),
                              helpers=self.helpers)
             fitted = [Answer(v, w, self.score(frame, v, w)) for v, w in result.fit.found]
             result.answers = distinct_answers([*fitted, network], self.candidates)
@@ -268,15 +271,15 @@ class Reconstructor:
         development set: docs/design.md#network-feedback)."""
         _, start = self.best_answer(frame, answers)
         feedback = cloud_feedback(read, self.program, self.recipe, frame.cloud, start, self.cfg.data.points,
-                                  self.cfg.seed)
-        best = min((Answer(self.program.check(s.values), s_pose(s), self.score(frame, s.values, s_pose(s)))
-                    for s in [start, *feedback]), key=lambda a: a.chamfer)
+                                  self.cfg.seed, self.tuning.cloud.feedback)
+        best = min((Answer(self.program.check(s.values), where, self.score(frame, s.values, where))
+                    for s in [start, *feedback] for where in [start_placement(s)]), key=lambda a: a.chamfer)
         return best, feedback
 
     def best_answer(self, frame: Frame, answers: list[Start]) -> tuple[float, Start]:
         """(plain distance, answer) of the network's answer (one per turn) nearest the input."""
         plain = CloudDistance(frame.samples[:TARGET_POINTS], trim=0.0)
-        return min(((plain(s_pose(s).apply(self.points(s.values))), s) for s in answers), key=lambda t: t[0])
+        return min(((plain(start_placement(s).apply(self.points(s.values))), s) for s in answers), key=lambda t: t[0])
 
     def nearest_starts(self, frame: Frame, starts: list[Start]) -> list[Start]:
         """The nearest training shapes as starts of the fit, each with the discrete options of
@@ -295,7 +298,7 @@ class Reconstructor:
     def points(self, values: dict, n: int = 2048) -> np.ndarray:
         return shape_points(self.program, self.program.check(values), n)
 
-    def score(self, frame: Frame, values: dict, where: Pose) -> float:
+    def score(self, frame: Frame, values: dict, where: Placement) -> float:
         """The plain Chamfer distance (SCORE_POINTS each, squared, mean of both directions / 2)
         between the input and a posed shape, on the input's unit sphere."""
         from geocode.metrics import chamfer
@@ -310,8 +313,9 @@ class Reconstructor:
         return posed
 
 
-def s_pose(start: Start) -> Pose:
-    return Pose(turn=start.turn)
+def start_placement(start: Start) -> Placement:
+    """Where a start's shape sits: turned by the start's turn, unscaled, not moved."""
+    return Placement(turn=start.turn)
 
 
 def distinct_answers(answers: list[Answer], k: int) -> list[Answer]:
@@ -495,7 +499,7 @@ def pose_facts(result: Reconstruction) -> dict:
     return {"up": result.frame.pose.up, **placement(result.frame, result.answers[0].where)}
 
 
-def placement(frame: Frame, where: Pose) -> dict:
+def placement(frame: Frame, where: Placement) -> dict:
     """Where the result sits: its turn about the up axis in the input's own frame (the
     canonical frame is the input turned by `frame.pose.turn`), scale and offset."""
     out = where.to_dict()

@@ -4,42 +4,43 @@ drawing (`geocode.reconstruct.linedraw`, a numpy stand-in for the dataset's Free
 
 The search space is `geocode.reconstruct.fit`'s unit box over the recipe's parameters (continuous over
 their range, discrete among the network's top choices) plus six camera coordinates:
-azimuth within AZIMUTH_SPAN degrees of its start (the starts go all around), elevation over
-0..MAX_ELEVATION degrees (free-hand drawings are often frontal or side views), roll within
-+-MAX_ROLL degrees, a scale within a factor SCALE_SPAN of its start and a shift within
-+-SHIFT_SPAN px.
+azimuth within `azimuth_span` degrees of its start (the starts go all around), elevation over
+0..`max_elevation` degrees (free-hand drawings are often frontal or side views), roll within
++-`max_roll` degrees, a scale within a factor `scale_span` of its start and a shift within
++-`shift_span` px. These, and the other names in `quotes` below, are the config's fit.drawing
+(`settings.DrawingFit`, conf/fit/default.yaml), which a fit is given as `tuning`.
 
-The starts are the network's answer seen from each of CAMERA_GUESSES (the dataset's two
+The starts are the network's answer seen from each of `camera_guesses` (the dataset's two
 trained views and their mirror images; frontal, side and back views from low down), each
 framed twice: as the dataset frames a unit-sphere shape (scale 1, no shift) and with its
 strokes' bounding box on the drawing's (as `reconstruct.sketch_from_image` frames a user's
 drawing). Every start is scored first, a start from a view farther than NEAR_VIEW degrees of
-azimuth from the dataset's trained ones counting VIEW_MARGIN px more: the network answers as
+azimuth from the dataset's trained ones counting `view_margin` px more: the network answers as
 if the drawing came from those, and a view a quarter-turn away draws a shape of swapped width
 and depth alike, which the search cannot tell apart from the drawing but the program's frame
 can (on the table test sketches this took the fit from 0.92x to 0.43x of the network's
 distance). A view that near draws no such twin, and a drawing from beside the trained views
-(the test sets' third camera, 20 degrees off) starts best there (docs/design.md#drawing-fit). Given the network's reader
+(the test sets' third camera, 20 degrees off) starts best there (docs/wild.md). Given the network's reader
 (`checkpoints.reader`), the best start is first corrected by the network itself
-(`drawing_feedback`, FEEDBACK rounds): its reading of our drawing of the answer is compared
+(`drawing_feedback`, `feedback` rounds): its reading of our drawing of the answer is compared
 with its reading of the input, and the difference moves the continuous parameters, which
 cancels what the network misreads alike in both; the best round, by the drawing distance,
 replaces the start (on 30 chair test sketches of the trained cameras the fitted Chamfer
 distance went from 0.58x to 0.50x of the network's, for six of the 800 evaluations; on 100
-vases from 0.77x to 0.73x: docs/design.md#drawing-fit).
+vases from 0.77x to 0.73x: docs/wild.md, Drawings, measured).
 The network's answer may be searched once for each of the first few options of the discrete
 parameter it is least sure of (`held_options`; how many: `fit_drawing`'s `branches`, per
 domain in the config's eval.sketch_fit_branches), that option held, each search on an equal
 share of the evaluations; the branch whose drawing ends nearest is the answer (with
 `orders` 2, each branch searched in both sweep orders, below). Within a search, from the
-best start, for each step of STEPS: every shown discrete parameter's other choices one at a
+best start, for each of `sweep_steps`: every shown discrete parameter's other choices one at a
 time, then every shown continuous parameter and camera coordinate +-step one at a time (or
 the continuous sweep first: a switch judged on a shape fitted around the start's structure;
 `fit.sweep_discrete`, `fit.sweep_continuous`), keeping what helps (coordinate sweeps: one
 parameter mostly moves one part of the drawing, and the network's answer is near, so single
 moves judged alone beat a population of 60-dimensional random moves at these budgets); then
 CMA-ES with per-coordinate steps on everything with what is left. The objective adds to the
-drawing distance PRIOR * |x - x0|^2 over the parameters' unit-box coordinates (x0: the
+drawing distance `prior` * |x - x0|^2 over the parameters' unit-box coordinates (x0: the
 start's): one view leaves depth undecided, and where the drawing does not tell, the network's
 answer should stand (on chair test sketches it took the fitted Chamfer distance from 0.7x to
 about 0.5x of the network's). The best shape seen is the answer, so the fit never ends farther
@@ -48,7 +49,7 @@ Branches, measured on 30 test sketches of the trained cameras (`geocode bench fi
 --modality sketch -n 30 --split test`, 800 evaluations), the fitted Chamfer distance against the network's:
 three branches took the chair from 0.48x to 0.38x and the cabinet from 0.42x to 0.39x; the
 table from 0.43x to 0.55x and the lamp from 0.15x to 0.22x, whose searches need the whole
-budget; the vase from 0.82x to 0.67x (with today's model 0.59x to 0.55x; docs/design.md#drawing-fit),
+budget; the vase from 0.82x to 0.67x (with today's model 0.59x to 0.55x; docs/wild.md, Drawings),
 and searching each of its branches in both sweep orders (1600 evaluations) from 0.53x to 0.49x
 (novel camera 0.71x to 0.70x).
 """
@@ -76,34 +77,14 @@ from geocode.reconstruct.fit import (
     sweep_discrete,
 )
 from geocode.reconstruct.linedraw import SIZE, DrawingDistance, Outline, View, stroke_mask, strokes
+from geocode.settings import DrawingFit as DrawingFitSettings
 
-# (azimuth, elevation) degrees: the dataset's trained views and their mirror images, views
-# every 20 degrees of azimuth from the front to either side at the dataset's elevation, then
-# frontal, side and back views from low down
-TRAINED_VIEWS = ((35.0, 30.0), (55.0, 30.0))   # the views of the dataset's training sketches
-CAMERA_GUESSES = (*TRAINED_VIEWS, (-35.0, 30.0), (-55.0, 30.0),
-                  *((float(a), 30.0) for a in range(-80, 81, 20)),
-                  (0.0, 10.0), (90.0, 10.0), (-90.0, 10.0), (180.0, 10.0))
-AZIMUTH_SPAN = 60.0      # degrees either side of the start's azimuth
-MAX_ELEVATION = 60.0     # degrees
-MAX_ROLL = 10.0          # degrees either way
-SCALE_SPAN = 1.4         # the scale within [s / 1.4, s * 1.4] of the start's s
-SHIFT_SPAN = 8.0         # px either way of the start's shift (the starts are framed already;
-                         # a wider span lets the fit trade shape for shift: docs/design.md#drawing-fit)
-BRANCH_BUDGET = 250      # evaluations a branch needs at least (the vase's curve flattens
-                         # from about 250: fewer stop before the options part)
-VIEW_MARGIN = 1.0        # px by which a start from another view must beat the trained views'
-                         # best: the network answers as if from those views, and a table drawn
-                         # from az 55 is also a table of swapped width and depth from az -35
-NEAR_VIEW = 20.0         # degrees of azimuth: views this near a trained one start without it
-SIGMA = 0.08             # CMA-ES's initial step on a parameter, in units of its range
-CAMERA_SIGMA = (0.05, 0.05, 0.1, 0.05, 0.05, 0.05)   # ... on the camera's coordinates
-STEPS = (0.15, 0.075, 0.04) # the best start's continuous parameters one at a time first, by
-                         # these shares of their ranges in turn
-PRIOR = 0.3              # px per squared unit-box move of the parameters from the start
-CAMERA_PRIOR = 0.0       # ... of the camera's coordinates from the start's view
-FEEDBACK = 6             # rounds of `drawing_feedback` on the best start
-CACHE = 8                # shapes kept between evaluations (the starts share theirs)
+# Not settings: the dataset's views, and what no result depends on.
+TRAINED_VIEWS = ((35.0, 30.0), (55.0, 30.0))   # (azimuth, elevation) degrees of the dataset's training
+                         # sketches (data.sketch's training cameras), the views the network answers from
+NEAR_VIEW = 20.0         # degrees of azimuth: views this near a trained one start without the view
+                         # margin (so near, they draw no twin of swapped width and depth)
+CACHE = 8                # shapes kept between evaluations (the starts share theirs): speed only
 
 
 @dataclass
@@ -122,24 +103,24 @@ class DrawingFit:
 class CameraSpace:
     """Six unit-box coordinates <-> a `View` around a start view: azimuth, elevation, roll,
     log-scale, shift x, shift y (each coordinate's middle, 0.5, is the start's value, except
-    the elevation, which spans 0..MAX_ELEVATION absolutely)."""
+    the elevation, which spans 0..tuning.max_elevation absolutely); the spans are `tuning`'s."""
 
-    def __init__(self, start: View):
-        self.start = start
+    def __init__(self, start: View, tuning: DrawingFitSettings):
+        self.start, self.tuning = start, tuning
 
     def x0(self) -> np.ndarray:
-        el = float(np.clip(self.start.elevation / MAX_ELEVATION, 0.0, 1.0))
+        el = float(np.clip(self.start.elevation / self.tuning.max_elevation, 0.0, 1.0))
         return np.array([0.5, el, 0.5, 0.5, 0.5, 0.5])
 
     def view(self, x: np.ndarray) -> View:
         x = np.clip(np.asarray(x, dtype=np.float64), 0.0, 1.0)
-        s = self.start
-        return View(azimuth=s.azimuth + (2 * x[0] - 1) * AZIMUTH_SPAN,
-                    elevation=x[1] * MAX_ELEVATION,
-                    roll=s.roll + (2 * x[2] - 1) * MAX_ROLL,
-                    scale=s.scale * SCALE_SPAN ** (2 * x[3] - 1),
-                    offset=(s.offset[0] + (2 * x[4] - 1) * SHIFT_SPAN,
-                            s.offset[1] + (2 * x[5] - 1) * SHIFT_SPAN))
+        s, t = self.start, self.tuning
+        return View(azimuth=s.azimuth + (2 * x[0] - 1) * t.azimuth_span,
+                    elevation=x[1] * t.max_elevation,
+                    roll=s.roll + (2 * x[2] - 1) * t.max_roll,
+                    scale=s.scale * t.scale_span ** (2 * x[3] - 1),
+                    offset=(s.offset[0] + (2 * x[4] - 1) * t.shift_span,
+                            s.offset[1] + (2 * x[5] - 1) * t.shift_span))
 
 
 def bounding_box(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
@@ -211,13 +192,14 @@ class Drawer:
         """Drawing distances of a batch in this process alone."""
         return [drawn_distance(self.shapes, self.distance, *item) for item in batch]
 
-    def finish(self, recipe, jobs: list[tuple]) -> list[tuple[dict, View, float, list[float]]]:
-        """`finish_search(recipe, draw, *job)` of each job, shared out whole between this
+    def finish(self, recipe, tuning: DrawingFitSettings,
+               jobs: list[tuple]) -> list[tuple[dict, View, float, list[float]]]:
+        """`finish_search(recipe, tuning, draw, *job)` of each job, shared out whole between this
         process and the helpers (a single job draws its batches with the helpers instead)."""
         if self.pool is None or len(jobs) < 2:
-            return [finish_search(recipe, self, *job) for job in jobs]
-        return share_out(self.pool, self.helpers, jobs, lambda job: finish_search(recipe, self.here, *job),
-                         _helper_finish, self.token, self.target, recipe)
+            return [finish_search(recipe, tuning, self, *job) for job in jobs]
+        return share_out(self.pool, self.helpers, jobs, lambda job: finish_search(recipe, tuning, self.here, *job),
+                         _helper_finish, self.token, self.target, recipe, tuning)
 
 
 def _helper_state(token: str, target: np.ndarray):
@@ -230,15 +212,16 @@ def _helper_distances(token: str, target: np.ndarray, batch: list[tuple[dict, Vi
     return [drawn_distance(shapes, distance, v, w) for v, w in batch]
 
 
-def _helper_finish(token: str, target: np.ndarray, recipe,
+def _helper_finish(token: str, target: np.ndarray, recipe, tuning: DrawingFitSettings,
                    jobs: list[tuple]) -> list[tuple[dict, View, float, list[float]]]:
     _, (shapes, distance) = _helper_state(token, target)
-    return [finish_search(recipe, lambda batch: [drawn_distance(shapes, distance, *item) for item in batch], *job)
+    return [finish_search(recipe, tuning, lambda batch: [drawn_distance(shapes, distance, *item) for item in batch],
+                          *job)
             for job in jobs]
 
 
 def camera_starts(shapes: Shapes, values: dict, target: np.ndarray,
-                  guesses: Sequence[tuple[float, float]] = CAMERA_GUESSES) -> list[View]:
+                  guesses: Sequence[Sequence[float]]) -> list[View]:
     """Each camera guess twice: the dataset's framing (scale 1, no shift), and the start
     shape's strokes framed on the drawing's (`framed`)."""
     outline = shapes(values)
@@ -259,37 +242,37 @@ def near_trained_view(view: View) -> bool:
 
 
 def fit_drawing(program, recipe, starts: Sequence[Start], drawing: np.ndarray,
-                budget: int, seed: int = 0,
-                guesses: Sequence[tuple[float, float]] = CAMERA_GUESSES, helpers: int = 0,
+                budget: int, tuning: DrawingFitSettings, seed: int = 0, helpers: int = 0,
                 read=None, branches: int = 1, orders: int = 1) -> DrawingFit:
     """Search at most `budget` program evaluations for the parameters and camera whose line
     drawing is nearest `drawing` ((224, 224) or (1, 224, 224) float, white 1, strokes 0, as
     `reconstruct.sketch_from_image` or `training_data.load_sketch` give), by
-    `linedraw.drawing_distance`. The first of `starts` (the network's answer, with its
-    discrete options, the least sure first) is searched once per branch (`held_options`; at
-    most `branches`, the config's eval.sketch_fit_branches, and as many as give each
-    BRANCH_BUDGET evaluations), each on an equal share of the budget, the other starts beside
-    it; each search tries every start from every camera guess and framing (`open_search`),
-    then sweeps and CMA-ES from the best (`finish_search`; module docstring). With `orders` 2
-    (the config's eval.sketch_fit_orders) each branch is searched twice from its one opening,
-    its discrete switches judged before and after each continuous sweep. The answer is the
-    search whose drawing ends nearest. Its camera views the unit-sphere shape
-    (`meshio.normalise_unit_sphere`) of its values. `helpers`: processes that draw the starts
-    beside this one (`Drawer`) and then finish searches beside it, each whole (the same
-    numbers sooner). `read`: the network's reading of drawings (`checkpoints.reader`), for
-    `drawing_feedback` on the best start before the search (None: no feedback)."""
+    `linedraw.drawing_distance`, as `tuning` (the config's fit.drawing) says. The first of
+    `starts` (the network's answer, with its discrete options, the least sure first) is
+    searched once per branch (`held_options`; at most `branches`, the config's
+    eval.sketch_fit_branches, and as many as give each tuning.branch_budget evaluations), each
+    on an equal share of the budget, the other starts beside it; each search tries every start
+    from every camera guess and framing (`open_search`), then sweeps and CMA-ES from the best
+    (`finish_search`; module docstring). With `orders` 2 (the config's eval.sketch_fit_orders)
+    each branch is searched twice from its one opening, its discrete switches judged before
+    and after each continuous sweep. The answer is the search whose drawing ends nearest. Its
+    camera views the unit-sphere shape (`meshio.normalise_unit_sphere`) of its values.
+    `helpers`: processes that draw the starts beside this one (`Drawer`) and then finish
+    searches beside it, each whole (the same numbers sooner). `read`: the network's reading of
+    drawings (`checkpoints.reader`), for `drawing_feedback` on the best start before the
+    search (None: no feedback)."""
     started = time.perf_counter()
     drawer = Drawer(program, stroke_mask(drawing), helpers)
     first = Start(program.check(starts[0].values), starts[0].options, starts[0].turn)
-    orders = max(1, min(orders, budget // BRANCH_BUDGET))
-    held = held_options(recipe, first, min(branches, budget // (BRANCH_BUDGET * orders)))
+    orders = max(1, min(orders, budget // tuning.branch_budget))
+    held = held_options(recipe, first, min(branches, budget // (tuning.branch_budget * orders)))
     n = len(held) * orders
     shares = [budget // n + (k >= n - budget % n) for k in range(n)]   # equal, the remainder last
-    openings = [open_search(program, recipe, [start, *starts[1:]], drawing, drawer, shares[b * orders], guesses, read)
+    openings = [open_search(program, recipe, [start, *starts[1:]], drawing, drawer, shares[b * orders], tuning, read)
                 for b, start in enumerate(held)]
     jobs = [(openings[k // orders], shares[k] - len(openings[k // orders].curve), seed, k % orders == 0)
             for k in range(n)]
-    ends = drawer.finish(recipe, jobs)
+    ends = drawer.finish(recipe, tuning, jobs)
     curve: list[float] = []
     for d in [d for o in openings for d in o.curve] + [d for end in ends for d in end[3]]:
         curve.append(min(d, curve[-1]) if curve else d)
@@ -312,10 +295,11 @@ class Opening:
     curve: list[float]    # best objective after each evaluation
 
 
-def objective(recipe, draw, spaces: Sequence[tuple[SearchSpace, CameraSpace]], curve: list[float]):
+def objective(recipe, draw, spaces: Sequence[tuple[SearchSpace, CameraSpace]], curve: list[float],
+              tuning: DrawingFitSettings):
     """(evaluate, the starts' coordinates x0): the search's objective on candidates [(start i,
-    x)], drawn by `draw` in one batch: the drawing distance plus PRIOR (and CAMERA_PRIOR)
-    times the squared unit-box move from x0[i]; inf where the recipe's rules fail or the
+    x)], drawn by `draw` in one batch: the drawing distance plus tuning.prior (and
+    tuning.camera_prior) times the squared unit-box move from x0[i]; inf where the recipe's rules fail or the
     program refuses. Each value goes on `curve` as the best so far."""
     x0s = [np.concatenate([space.x0(), cams.x0()]) for space, cams in spaces]
 
@@ -332,7 +316,7 @@ def objective(recipe, draw, spaces: Sequence[tuple[SearchSpace, CameraSpace]], c
             value, n = drawn.get(k, math.inf), shaped[k][2]
             if math.isfinite(value):
                 moved = (np.clip(x, 0, 1) - x0s[i]) ** 2
-                value += PRIOR * float(np.sum(moved[:n])) + CAMERA_PRIOR * float(np.sum(moved[n:]))
+                value += tuning.prior * float(np.sum(moved[:n])) + tuning.camera_prior * float(np.sum(moved[n:]))
             curve.append(min(value, curve[-1]) if curve else value)
             out.append(value)
         return out
@@ -341,25 +325,26 @@ def objective(recipe, draw, spaces: Sequence[tuple[SearchSpace, CameraSpace]], c
 
 
 def open_search(program, recipe, starts: Sequence[Start], drawing: np.ndarray, drawer: Drawer,
-                budget: int, guesses: Sequence[tuple[float, float]], read) -> Opening:
+                budget: int, tuning: DrawingFitSettings, read) -> Opening:
     """A search's first part (`fit_drawing`'s docstring): every start from every camera guess
-    and framing, scored in one batch (a view far from the trained ones with VIEW_MARGIN), then
-    the network's feedback on the best."""
+    and framing, scored in one batch (a view far from the trained ones with tuning.view_margin),
+    then the network's feedback on the best."""
     shapes, distance = drawer.shapes, drawer.distance
     spaces = []
     for s in starts:
         space = SearchSpace(recipe, Start(program.check(s.values), s.options))
-        spaces += [(space, CameraSpace(v)) for v in camera_starts(shapes, space.start.values, drawer.target, guesses)]
+        spaces += [(space, CameraSpace(v, tuning))
+                   for v in camera_starts(shapes, space.start.values, drawer.target, tuning.camera_guesses)]
     curve: list[float] = []
-    evaluate, x0s = objective(recipe, drawer, spaces, curve)
+    evaluate, x0s = objective(recipe, drawer, spaces, curve, tuning)
     scores = evaluate(list(enumerate(x0s[:max(1, budget)])))
-    handicap = [0.0 if near_trained_view(cams.start) else VIEW_MARGIN for _, cams in spaces[:len(scores)]]
+    handicap = [0.0 if near_trained_view(cams.start) else tuning.view_margin for _, cams in spaces[:len(scores)]]
     i = int(np.argsort(np.add(scores, handicap), kind="stable")[0])
     (space, cams), before = spaces[i], float(scores[i])
     start, score = space.start, before
     if read is not None and math.isfinite(before):   # the network corrects its own reading
         rounds = drawing_feedback(read, shapes, distance, recipe, drawing, start.values, cams.start,
-                                  min(FEEDBACK, budget - len(curve)))
+                                  min(tuning.feedback, budget - len(curve)))
         for d, _ in rounds:
             curve.append(min(d, curve[-1]))
         d, values = min(rounds, key=lambda r: r[0], default=(math.inf, None))
@@ -368,17 +353,17 @@ def open_search(program, recipe, starts: Sequence[Start], drawing: np.ndarray, d
     return Opening(start, cams.start, score, before, i, curve)
 
 
-def finish_search(recipe, draw, opening: Opening, budget: int, seed: int,
+def finish_search(recipe, tuning: DrawingFitSettings, draw, opening: Opening, budget: int, seed: int,
                   switches_first: bool) -> tuple[dict, View, float, list[float]]:
     """A search's second part, from its opening, within `budget` evaluations: for each of
-    STEPS, sweeps one coordinate at a time, the discrete switches before the continuous sweep
+    tuning.sweep_steps, sweeps one coordinate at a time, the discrete switches before the continuous sweep
     (`switches_first`: a switch judged on the start's shape) or after it (judged on a shape
     fitted around the start's structure; each order finds answers the other misses,
-    docs/design.md#drawing-fit), then CMA-ES on all. (values, view, drawing distance less the
+    docs/wild.md, Drawings), then CMA-ES on all. (values, view, drawing distance less the
     prior, curve) of the best candidate; `draw` as `Drawer`."""
-    space, cams = SearchSpace(recipe, opening.start), CameraSpace(opening.view)
+    space, cams = SearchSpace(recipe, opening.start), CameraSpace(opening.view, tuning)
     curve: list[float] = []
-    evaluate, (x,) = objective(recipe, draw, [(space, cams)], curve)
+    evaluate, (x,) = objective(recipe, draw, [(space, cams)], curve, tuning)
     f = opening.score
 
     def batch(xs: Sequence[np.ndarray]) -> list[float]:
@@ -387,14 +372,14 @@ def finish_search(recipe, draw, opening: Opening, budget: int, seed: int,
     def switches(x: np.ndarray, f: float) -> tuple[np.ndarray, float]:
         return sweep_discrete(batch, space, x, f, budget - len(curve))
 
-    for step in STEPS:
+    for step in tuning.sweep_steps:
         if switches_first:
             x, f = switches(x, f)
         x, f = sweep_continuous(batch, space, x, f, budget - len(curve), step, extra=6)
         if not switches_first:
             x, f = switches(x, f)
-    stds = np.concatenate([np.full(len(x) - 6, SIGMA), CAMERA_SIGMA])
-    y, g = cma_search(batch, x, budget - len(curve), seed, stds)
+    stds = np.concatenate([np.full(len(x) - 6, tuning.sigma), tuning.camera_sigma])
+    y, g = cma_search(batch, x, budget - len(curve), seed, 1.0, stds)
     best, best_x = (g, y) if g < f else (f, x)
     n = len(best_x) - 6
     values, view = space.values(best_x[:n]), cams.view(best_x[n:])
@@ -407,7 +392,7 @@ def held_options(recipe, start: Start, k: int) -> list[Start]:
     than one option; `checkpoints.ranked_predictions` lists the least sure first), that choice
     held; [start] when none has. Near the fit's residual a drawing does not tell a vase's
     handle count, say, from widths that imitate it, so each choice gets a search of its own
-    and the drawings' distances judge only finished searches (docs/design.md#drawing-fit)."""
+    and the drawings' distances judge only finished searches (docs/wild.md, Drawings)."""
     shown = recipe.shown(start.values)
     for name, values in start.options.items():
         if len(values) > 1 and shown[name] and k > 1:
@@ -417,7 +402,7 @@ def held_options(recipe, start: Start, k: int) -> list[Start]:
 
 
 def drawing_feedback(read, shapes: Shapes, distance: DrawingDistance, recipe, drawing: np.ndarray,
-                     values: dict, view: View, rounds: int = FEEDBACK) -> list[tuple[float, dict]]:
+                     values: dict, view: View, rounds: int) -> list[tuple[float, dict]]:
     """`fit.network_feedback` on a drawing: the network reads the input's strokes and our line
     drawings from `view`, both as stroke masks (the style our drawing has). [(drawing
     distance, values)] of each round."""

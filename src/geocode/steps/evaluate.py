@@ -21,7 +21,7 @@ from omegaconf import DictConfig
 from geocode import paths
 from geocode.card import write_card
 from geocode.conditions import FITS, MODALITY_NAMES, SKETCH_FITTED, conditions, robustness, unfitted
-from geocode.config import NAME, sketch_fit_budget, sketch_fit_searches
+from geocode.config import NAME, settings, sketch_fit_budget, sketch_fit_searches
 from geocode.errors import UserError
 from geocode.meshio import (
     REDO_EXPORT,
@@ -226,12 +226,12 @@ def fit_prediction(cfg: DictConfig, domain: str, program, recipe, row: dict, val
     from geocode.reconstruct.sketchfit import fit_drawing
 
     kind, target = model_input(cfg, domain, unfitted(row), row["id"])
-    start = [Start(values, json.loads(row[OPTIONS]))]
+    start, tuning = [Start(values, json.loads(row[OPTIONS]))], settings(cfg).fit
     if kind == "sketch":
-        result = fit_drawing(program, recipe, start, target, sketch_fit_budget(cfg, domain), seed=cfg.seed, read=read,
-                             **sketch_fit_searches(cfg, domain))
+        result = fit_drawing(program, recipe, start, target, sketch_fit_budget(cfg, domain), tuning.drawing,
+                             seed=cfg.seed, read=read, **sketch_fit_searches(cfg, domain))
     else:   # test clouds sit in the program's own frame, so the pose is not searched
-        result = fit(program, recipe, start, target, cfg.eval.fit_budget, seed=cfg.seed, pose=False)
+        result = fit(program, recipe, start, target, cfg.eval.fit_budget, tuning.cloud, seed=cfg.seed, pose=False)
     stats = {"condition": row["condition"], "id": row["id"], "before": result.before, "after": result.after,
              "evaluations": result.evaluations, "seconds": result.seconds}
     return result.values, stats
