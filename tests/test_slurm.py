@@ -7,6 +7,7 @@ from __future__ import annotations
 import importlib.util
 import json
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -75,7 +76,5 @@ def test_the_slurm_profile_reconstructs_a_collection_one_job_per_batch(smoke_run
     result = snakemake(work / "run", env, str(COLLECTION_DIR), "--slurm-init-seconds-before-status-checks", "1",
                        config=(COLLECTION,))
     assert result.returncode == 0, result.stderr[-3000:]
-    check_collection(work / "run", result.stdout + result.stderr, batches=2)
-    submitted = [" ".join(call) for call in calls(env, "sbatch")]
-    assert sum("rule_reconstruct_batch" in call for call in submitted) == 2
-    assert sum("rule_reconstruct_page" in call for call in submitted) == 1
+    submitted = [re.search(r"--comment rule_(\S+?)_wildcards", " ".join(call))[1] for call in calls(env, "sbatch")]
+    check_collection(work / "run", submitted, batches=2)

@@ -230,10 +230,10 @@ def collection_run(smoke_run: Path, work: Path) -> Path:
     return work
 
 
-def check_collection(work: Path, log: str, batches: int) -> None:
+def check_collection(work: Path, jobs: list[str], batches: int) -> None:
     """Every input's outputs under the names `geocode reconstruct scans -o ...` gives, one row
-    each in summary.csv, their pictures on the page; `batches` batch jobs ran and nothing else
-    but the page (the model was not trained again)."""
+    each in summary.csv, their pictures on the page; the rules of the `jobs` run: `batches`
+    batch jobs and the page, nothing else (the model was not trained again)."""
     out = work / COLLECTION_DIR
     for stem in ("other", "twin-obj", "twin-ply"):
         for suffix in (".yaml", ".obj", ".in-place.obj", ".png", ".blend"):
@@ -243,20 +243,27 @@ def check_collection(work: Path, log: str, batches: int) -> None:
     assert (summary["after"] <= summary["before"]).all()
     assert len(list((out / "page").glob("*.png"))) == 6
     assert "twin.ply" in (out / "index.html").read_text()
-    jobs = [line.split()[1].rstrip(":") for line in log.splitlines() if line.startswith(("rule ", "localrule "))]
     assert sorted(jobs) == ["reconstruct_batch"] * batches + ["reconstruct_page"], jobs
+
+
+def rules_run(result: subprocess.CompletedProcess) -> list[str]:
+    """The rule of each job a local run ran, from its log."""
+    return [line.split()[1].rstrip(":") for line in (result.stdout + result.stderr).splitlines()
+            if line.startswith(("rule ", "localrule "))]
 
 
 def test_a_collection_is_reconstructed_in_batches_and_a_rerun_redoes_only_what_is_missing(smoke_run, tmp_path):
     work = collection_run(smoke_run, tmp_path / "work")
     target = str(COLLECTION_DIR)
     first = snakemake(work, "-j2", target, "--config", "profile=smoke", COLLECTION)
-    check_collection(work, first.stdout + first.stderr, batches=2)
+    check_collection(work, rules_run(first), batches=2)
     records = work / "runs" / "smoke" / "reconstruct" / "scans"
     kept = (records / "batch-0.json").stat().st_mtime_ns
-    (records / "batch-1.json").unlink()              # as a batch stopped before its record
+    # as a run stopped in batch 1 (its record not yet written), before the page
+    (records / "batch-1.json").unlink()
+    shutil.rmtree(work / COLLECTION_DIR)
     again = snakemake(work, "-j2", target, "--config", "profile=smoke", COLLECTION)
-    check_collection(work, again.stdout + again.stderr, batches=1)
+    check_collection(work, rules_run(again), batches=1)
     assert (records / "batch-0.json").stat().st_mtime_ns == kept
 
 
