@@ -36,3 +36,14 @@ def program(request):
 def label(program):
     """The part label constants of that program's module (TOP, LEGS, ...)."""
     return program._module
+
+
+@pytest.fixture(scope="session")
+def smoke_run(tmp_path_factory):
+    """A finished smoke run of the workflow (results/smoke/tables: vases made, a model trained
+    and evaluated), shared by the test files that read it; copy it before running more."""
+    from test_workflow import SMOKE, snakemake
+
+    work = tmp_path_factory.mktemp("smoke")
+    snakemake(work, "-j2", "results/smoke/tables", *SMOKE)
+    return work

@@ -28,9 +28,9 @@ def folder(tmp_path_factory):
     plain = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False)
     y_up = plain.copy()
     y_up.vertices = np.stack([plain.vertices[:, 0], plain.vertices[:, 2], -plain.vertices[:, 1]], 1) * 30.0
-    y_up.export(root / "vase" / "turned.off")
-    plain.export(root / "vase" / "plain.stl")
-    (root / "up.yaml").write_text('"turned.*": y\n"*": z\n')
+    y_up.export(root / "vase" / "twin.off")       # two files of one stem: their outputs apart
+    plain.export(root / "vase" / "twin.stl")
+    (root / "up.yaml").write_text('"*.off": y\n"*": z\n')
     runs = root / "runs"
     (runs / "vase" / "joint" / "checkpoints").mkdir(parents=True)
     untrained_checkpoint(runs / "vase" / "joint" / "checkpoints" / "best.ckpt", "vase")
@@ -55,9 +55,11 @@ def test_bench_real_scores_every_file_against_its_baselines_and_writes_their_pag
     assert math.isnan(result["median_nearest"])                  # the run has no training shapes
     assert {f["up_true"] for f in result["files"]} == {"+y", "+z"}
     page = (out / "vase" / "index.html").read_text()
-    assert "turned.off" in page and "plain.stl" in page
-    assert all((out / "vase" / f"{stem}{s}").is_file() for stem in ("turned", "plain")
+    assert "twin.off" in page and "twin.stl" in page
+    # named as `geocode reconstruct` names them: each keeps its suffix, none over the other
+    assert all((out / "vase" / f"{stem}{s}").is_file() for stem in ("twin-off", "twin-stl")
                for s in (".yaml", ".obj", ".in-place.obj", ".blend"))
+    assert not (out / "vase" / "twin.obj").exists()
     card = (folder / "runs" / "vase" / "joint" / "README.md").read_text()
     assert "Real shapes (`geocode bench real`, 2 files)" in card
 
@@ -69,7 +71,7 @@ def test_bench_span_fits_from_the_defaults_and_writes_a_page(folder, tmp_path, c
     result = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     assert result["shapes"] == 2 and result["budget"] == 12
     assert all(f["evaluations"] == 12 and f["chamfer"] > 0 for f in result["files"])
-    assert "turned.off" in (out / "index.html").read_text()
+    assert "twin.off" in (out / "index.html").read_text()
 
 
 def test_span_finds_a_shape_standing_half_a_quarter_turn_off():

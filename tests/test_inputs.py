@@ -133,6 +133,20 @@ def test_surface_points_of_a_cloud_subsample_or_repeat():
     assert many.shape == (300, 3) and len(np.unique(many, axis=0)) == 200
 
 
+@pytest.mark.parametrize("size", [20000, 6000])     # more points than the samples, and fewer
+def test_a_scan_stored_row_by_row_gives_samples_spread_over_its_whole_height(size):
+    """A cloud sorted by height (a scanner's rows): the fit's first 4096 samples span the whole
+    height, not its bottom, and the same seed gives the same samples."""
+    rng = np.random.default_rng(1)
+    angle, height = rng.uniform(0, 2 * np.pi, size), np.sort(rng.uniform(0, 1, size))
+    g = inputs.Geometry(None, np.stack([np.cos(angle), np.sin(angle), height], 1), None, "cloud")
+    samples = surface_points(g, 10000, np.random.default_rng(0))
+    first = samples[:4096, 2]
+    assert first.min() < 0.02 and first.max() > 0.98
+    assert np.histogram(first, bins=10, range=(0, 1))[0].min() > 4096 / 10 * 0.7   # evenly, not one end
+    assert np.array_equal(samples, surface_points(g, 10000, np.random.default_rng(0)))
+
+
 def test_a_file_above_the_byte_limit_is_one_line(tmp_path, monkeypatch):
     monkeypatch.setattr(inputs, "MAX_BYTES", 10)
     path = tmp_path / "huge.xyz"

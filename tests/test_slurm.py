@@ -7,6 +7,7 @@ from __future__ import annotations
 import importlib.util
 import json
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -34,9 +35,9 @@ def cluster(tmp_path: Path) -> tuple[Path, dict]:
     return work, env
 
 
-def snakemake(work: Path, env: dict, *args: str) -> subprocess.CompletedProcess:
+def snakemake(work: Path, env: dict, *args: str, config: tuple[str, ...] = ()) -> subprocess.CompletedProcess:
     cmd = [sys.executable, "-m", "snakemake", "-s", str(ROOT / "workflow" / "Snakefile"),
-           "--profile", str(ROOT / "profiles" / "slurm"), *args, "--config", "profile=smoke"]
+           "--profile", str(ROOT / "profiles" / "slurm"), *args, "--config", "profile=smoke", *config]
     return subprocess.run(cmd, cwd=work, env=env, capture_output=True, text=True, timeout=600)
 
 
@@ -64,3 +65,16 @@ def test_the_slurm_profile_submits_real_jobs_with_their_resources(cluster):
     assert "-p cpu" in text and "-t 120" in text and "--mem 2000" in text
     assert "rule_program_wildcards_vase" in text
     assert calls(env, "sacct") or calls(env, "squeue")
+
+
+def test_the_slurm_profile_reconstructs_a_collection_one_job_per_batch(smoke_run, cluster):
+    """results/smoke/reconstruct/<name>/ on the cluster: a job per batch, then the page job."""
+    from test_workflow import COLLECTION, COLLECTION_DIR, check_collection, collection_run
+
+    work, env = cluster
+    collection_run(smoke_run, work / "run")
+    result = snakemake(work / "run", env, str(COLLECTION_DIR), "--slurm-init-seconds-before-status-checks", "1",
+                       config=(COLLECTION,))
+    assert result.returncode == 0, result.stderr[-3000:]
+    submitted = [re.search(r"--comment rule_(\S+?)_wildcards", " ".join(call))[1] for call in calls(env, "sbatch")]
+    check_collection(work / "run", submitted, batches=2)

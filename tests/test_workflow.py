@@ -10,6 +10,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -19,6 +20,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+import trimesh
 import yaml
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -72,13 +74,6 @@ def test_bad_config_stops_before_any_job_with_one_line(tmp_path):
     assert result.returncode != 0
     assert "data.shards=0: out of range; give a whole number >= 1" in result.stdout + result.stderr
     assert not (tmp_path / "data").exists()
-
-
-@pytest.fixture(scope="module")
-def smoke_run(tmp_path_factory) -> Path:
-    work = tmp_path_factory.mktemp("smoke")
-    snakemake(work, "-j2", "results/smoke/tables", *SMOKE)
-    return work
 
 
 def file_hashes(folder: Path) -> dict[str, str]:
@@ -224,3 +219,77 @@ def test_a_slice_of_the_paper_profile_runs_with_the_papers_settings(tmp_path):
     assert config["data"]["variations"] == {"train": 30, "val": 3, "test": 3} and config["eval"]["decode"] == "argmax"
     summary = json.loads((run / "summary.json").read_text())
     assert summary["epochs"] == 1
+
+
+# -- a collection of one's own files: results/smoke/reconstruct/<name>/ ------------------------------
+
+COLLECTION = "reconstruct={scans: {domain: vase, inputs: scans, batch: 2, budget: 3}}"
+COLLECTION_DIR = Path("results/smoke/reconstruct/scans")
+
+
+def collection_run(smoke_run: Path, work: Path) -> Path:
+    """A copy of the smoke run (its model trained) with a folder scans/ of three vases, two of
+    one stem: other.obj, twin.obj, twin.ply (two batches of 2 and 1)."""
+    shutil.copytree(smoke_run, work, symlinks=True)
+    shapes = sorted((work / "data" / "smoke" / "vase" / "test" / "shapes").glob("*.obj"))
+    scans = work / "scans"
+    scans.mkdir()
+    shutil.copy(shapes[0], scans / "other.obj")
+    shutil.copy(shapes[1], scans / "twin.obj")
+    trimesh.load(shapes[1], force="mesh").export(scans / "twin.ply")
+    return work
+
+
+def check_collection(work: Path, jobs: list[str], batches: int) -> None:
+    """Every input's outputs under the names `geocode reconstruct scans -o ...` gives, one row
+    each in summary.csv, their pictures on the page; the rules of the `jobs` run: `batches`
+    batch jobs and the page, nothing else (the model was not trained again)."""
+    out = work / COLLECTION_DIR
+    for stem in ("other", "twin-obj", "twin-ply"):
+        for suffix in (".yaml", ".obj", ".in-place.obj", ".png", ".blend"):
+            assert (out / f"{stem}{suffix}").is_file(), f"{stem}{suffix}"
+    summary = pd.read_csv(out / "summary.csv")
+    assert list(summary["name"]) == ["other.obj", "twin.obj", "twin.ply"] and summary["error"].isna().all()
+    assert (summary["after"] <= summary["before"]).all()
+    assert len(list((out / "page").glob("*.png"))) == 6
+    assert "twin.ply" in (out / "index.html").read_text()
+    assert sorted(jobs) == ["reconstruct_batch"] * batches + ["reconstruct_page"], jobs
+
+
+def rules_run(result: subprocess.CompletedProcess) -> list[str]:
+    """The rule of each job a local run ran, from its log."""
+    return [line.split()[1].rstrip(":") for line in (result.stdout + result.stderr).splitlines()
+            if line.startswith(("rule ", "localrule "))]
+
+
+def test_a_collection_is_reconstructed_in_batches_and_a_rerun_redoes_only_what_is_missing(smoke_run, tmp_path):
+    work = collection_run(smoke_run, tmp_path / "work")
+    target = str(COLLECTION_DIR)
+    first = snakemake(work, "-j2", target, "--config", "profile=smoke", COLLECTION)
+    check_collection(work, rules_run(first), batches=2)
+    records = work / "runs" / "smoke" / "reconstruct" / "scans"
+    kept = (records / "batch-0.json").stat().st_mtime_ns
+    # as a run stopped in batch 1 (its record not yet written), before the page
+    (records / "batch-1.json").unlink()
+    shutil.rmtree(work / COLLECTION_DIR)
+    again = snakemake(work, "-j2", target, "--config", "profile=smoke", COLLECTION)
+    check_collection(work, rules_run(again), batches=1)
+    assert (records / "batch-0.json").stat().st_mtime_ns == kept
+
+
+@pytest.mark.parametrize("spec, line", [
+    ("{scans: {domain: chiar, inputs: scans}}", "reconstruct.scans.domain=chiar: not a domain of this run"),
+    ("{scans: {domain: vase, inputs: nowhere}}", "reconstruct.scans.inputs: nowhere: no such file or folder"),
+    ("{scans: {domain: vase, inputs: empty}}", "reconstruct.scans.inputs: empty: no mesh, cloud or drawing files"),
+    ("{a/b: {domain: vase, inputs: scans}}", "reconstruct: 'a/b': not a plain name (it names a folder)"),
+    ("{scans: {domain: vase, inputs: scans, batch: 0}}", "reconstruct.scans.batch=0: not valid; give a whole"),
+])
+def test_a_bad_collection_stops_before_any_job_with_one_line(tmp_path, spec, line):
+    (tmp_path / "scans").mkdir()
+    (tmp_path / "scans" / "a.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    (tmp_path / "empty").mkdir()
+    result = snakemake(tmp_path, "-n", "results/smoke/reconstruct/scans", "--config", "profile=smoke",
+                       f"reconstruct={spec}", check=False)
+    assert result.returncode != 0
+    assert line in result.stdout + result.stderr
+    assert "Traceback" not in result.stdout + result.stderr

@@ -286,6 +286,12 @@ def parser() -> argparse.ArgumentParser:
     to_file = (("-o", "--output"), dict(required=True, type=output_file))
     to_folder = (("-o", "--output"), dict(required=True, type=output_folder))
     run = "runs/mini/vase/joint"
+    collection = ((("domain",), dict(choices=domains)), (("input",), dict(type=Path, help="the collection's folder")),
+                  (("-o", "--output"), dict(required=True, type=Path, help="the collection's folder of results")),
+                  (("--work",), dict(required=True, type=Path, help="the folder of its batches")),
+                  (("--batch-size",), dict(required=True, type=at_least(1))),
+                  (("--recursive",), dict(action="store_true")))
+    scans = "geocode {} chair scans/ -o results/reconstruct/scans --work runs/mini/reconstruct/scans --batch-size 8"
     for name, help, run_step, arguments, example in (
         ("sample", "sample the recipes of every split", cmd_sample, (), "geocode sample domain=vase profile=smoke"),
         *((name, f"one shard of the {name} stage", fn, ((("--split",), dict(required=True)), shard),
@@ -310,12 +316,23 @@ def parser() -> argparse.ArgumentParser:
          f"geocode tables --metrics {run}/eval/metrics.parquet -o tables/ domains=[vase]"),
         ("report", "an HTML page of inputs, ground truth and predictions", cmd_report, (metrics, to_folder),
          f"geocode report --metrics {run}/eval/metrics.parquet -o report/ domains=[vase]"),
+        ("reconstruct-batch", "reconstruct one batch of a workflow collection (geocode.reconstruct.collection)",
+         cmd_reconstruct_batch,
+         (*collection, (("--batch",), dict(required=True, type=at_least(0))),
+          (("--checkpoint",), dict(type=Path)), (("--budget",), dict(type=at_least(0))),
+          (("-j", "--workers"), dict(type=at_least(1), default=1))),
+         scans.format("reconstruct-batch") + " --batch 0"),
     ):
         c = command(sub, name, f"{help} ({step})", example)
         added = [c.add_argument(*flags, **options) for flags, options in arguments]
         if name == "train":
             renamed(c, "--out", added[0])
         c.set_defaults(run=run_step)
+    c = command(sub, "reconstruct-page", "a workflow collection's batches gathered: its folder, page and "
+                "summary.csv (pipeline step)", scans.format("reconstruct-page"))
+    for flags, options in collection:
+        c.add_argument(*flags, **options)
+    c.set_defaults(run=cmd_reconstruct_page)
     c = command(sub, "config", "print the composed config for these overrides",
                 "geocode config profile=paper domain=chair", "geocode config --keys   # every group and key, "
                 "with its meaning")
@@ -503,6 +520,20 @@ def cmd_reconstruct(args):
     return reconstruct(cfg, args.domain, args.input, args.output, checkpoint=args.checkpoint,
                        refine=args.budget, up=args.up, candidates=args.candidates,
                        recursive=args.recursive, workers=args.workers)
+
+
+def cmd_reconstruct_batch(args):
+    from geocode.reconstruct.collection import batch_step
+
+    return batch_step(step_config(args, f"domain={args.domain}"), args.domain, args.input, args.output, args.work,
+                      args.batch, args.batch_size, checkpoint=args.checkpoint, budget=args.budget,
+                      recursive=args.recursive, workers=args.workers)
+
+
+def cmd_reconstruct_page(args):
+    from geocode.reconstruct.collection import page_step
+
+    return page_step(args.domain, args.input, args.output, args.work, args.batch_size, recursive=args.recursive)
 
 
 def cmd_mix(args):
@@ -746,9 +777,10 @@ def cmd_report(args):
 
 # Commands that start Blender: it is imported first, with stop signals held until it is up.
 BLENDER = {cmd_programs, cmd_program_show, cmd_program_build, cmd_shape, cmd_gallery, cmd_export,
-           cmd_sketch, cmd_rebuild, cmd_reconstruct, cmd_mix, cmd_interpolate, cmd_addon_build}
+           cmd_sketch, cmd_rebuild, cmd_reconstruct, cmd_reconstruct_batch, cmd_mix, cmd_interpolate, cmd_addon_build}
 # Commands that take Hydra overrides (key=value) after their options.
-OVERRIDES = {cmd_reconstruct, cmd_report, cmd_sample, cmd_export, cmd_sketch, cmd_points, cmd_train, cmd_config,
+OVERRIDES = {cmd_reconstruct, cmd_reconstruct_batch,
+             cmd_report, cmd_sample, cmd_export, cmd_sketch, cmd_points, cmd_train, cmd_config,
              cmd_simplify, cmd_predict, cmd_rebuild, cmd_metrics, cmd_tables, cmd_timings, cmd_bench_dataset,
              cmd_bench_fit, cmd_bench_turns, cmd_bench_real, cmd_bench_span}
 

@@ -16,6 +16,8 @@ back as it was: a Snakemake wildcard.
         logs/version_<n>/metrics.csv (Lightning's CSVLogger), eval/predictions.parquet,
         eval/metrics.parquet, eval/rebuilt/<condition>/<id>.obj, done-<shard>.txt, fit-<shard>.parquet
     <paths.results>/tables/, report/index.html           (the default profile's: results/)
+    <paths.results>/reconstruct/<name>/                  a collection (workflow target), its batches
+        in <paths.runs>/reconstruct/<name>/batch-<n>/, batch-<n>.json
     logs/<the folder a job writes>/<rule>/<name>.log
 """
 
@@ -238,6 +240,28 @@ def report_dir(cfg) -> Path:
 
 def report_index(cfg) -> Path:
     return report_dir(cfg) / "index.html"
+
+
+# -- the workflow's collections of a user's own files (workflow/rules/reconstruct.smk) -----------
+
+def collection_dir(cfg, name: str) -> Path:
+    """<paths.results>/reconstruct/<name>/: the collection's outputs, page and summary.csv, as
+    `geocode reconstruct <folder> -o` writes them."""
+    return Path(cfg.paths.results) / "reconstruct" / name
+
+
+def collection_work(cfg, name: str) -> Path:
+    """<paths.runs>/reconstruct/<name>/: each batch's outputs, before the page gathers them."""
+    return Path(cfg.paths.runs) / "reconstruct" / name
+
+
+def collection_batch_dir(work: Path, batch: int | str) -> Path:
+    return Path(work) / f"batch-{batch}"
+
+
+def collection_batch_file(work: Path, batch: int | str) -> Path:
+    """A batch's record (its inputs' page entries, summaries and files), written last."""
+    return Path(work) / f"batch-{batch}.json"
 
 
 def log_file(folder: str | Path, rule: str, name: str | None = None) -> Path:

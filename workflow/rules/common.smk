@@ -1,6 +1,7 @@
 # Config and helpers common to all rules. Every path comes from geocode.paths, the layout the
 # Python steps use too; each --config key=value is handed to every step as the same Hydra override.
 import os
+import re
 import shlex
 import sys
 from pathlib import Path
@@ -9,6 +10,8 @@ from snakemake.exceptions import WorkflowError
 
 from geocode import paths
 from geocode.config import ConfigError, compose, domains, training_key, variants
+from geocode.errors import UserError
+from geocode.reconstruct.collection import collections
 
 envvars:
     "PATH",
@@ -32,7 +35,9 @@ def as_overrides(key, value):
     return [f"{key}={value}"]
 
 
-OVERRIDES = [o for k, v in {"profile": "mini", **config}.items() for o in as_overrides(k, v)]
+# Keys of the workflow alone, not of conf/: the collections of rules/reconstruct.smk.
+WORKFLOW_KEYS = ("reconstruct",)
+OVERRIDES = [o for k, v in {"profile": "mini", **config}.items() if k not in WORKFLOW_KEYS for o in as_overrides(k, v)]
 try:
     CFG = compose(OVERRIDES)
 except ConfigError as exc:
@@ -123,3 +128,31 @@ def training_settings(wildcards):
     command line's overrides do (the train step then sets the old run aside)."""
     cfg = compose([*OVERRIDES, f"domain={wildcards.domain}", f"model={wildcards.variant}"])
     return training_key(cfg, epochs=True)
+
+
+# -- collections of a user's own files (rules/reconstruct.smk) ------------------------------------
+
+try:
+    COLLECTIONS = collections(config.get("reconstruct"), DOMAINS, lambda name: paths.collection_dir(CFG, name),
+                              lambda name: paths.collection_work(CFG, name))
+except UserError as exc:
+    raise WorkflowError(f"--config {exc}") from None
+
+COLLECTION_NAMES = "|".join(re.escape(name) for name in COLLECTIONS) or "none"
+
+
+def collection_work(name):
+    return paths.collection_work(CFG, name)
+
+
+def collection_batches(name):
+    """The record of each batch of a collection."""
+    return [str(paths.collection_batch_file(collection_work(name), b)) for b in range(len(COLLECTIONS[name].batches()))]
+
+
+def collection_args(name):
+    """The arguments both steps take: the collection's domain, folder, folders and batch size."""
+    c = COLLECTIONS[name]
+    args = [c.domain, str(c.inputs), "-o", str(paths.collection_dir(CFG, name)), "--work", str(collection_work(name)),
+            "--batch-size", str(c.batch), *(["--recursive"] if c.recursive else [])]
+    return " ".join(shlex.quote(a) for a in args)

@@ -60,7 +60,7 @@ def bench_real(overrides: list[str], folder: Path, up_truth: Path | None = None,
     training shape, seconds per shape and how often the up axis found is the true one."""
     from geocode.config import compose, registry
     from geocode.reconstruct import page
-    from geocode.reconstruct.inputs import SUFFIXES
+    from geocode.reconstruct.plan import Job, inputs_of, plan_run
     from geocode.reconstruct.run import PAGE_NOTE, Reconstructor
 
     folder, table = Path(folder), read_up_truth(up_truth)
@@ -69,10 +69,14 @@ def bench_real(overrides: list[str], folder: Path, up_truth: Path | None = None,
         raise UserError(folder, "no subfolder named after a domain", f"make {', '.join(registry())} subfolders")
     result = {}
     for domain in domains:
-        files = sorted(p for p in (folder / domain).iterdir() if p.suffix.lower() in SUFFIXES)
-        run = Reconstructor(compose([*overrides, f"domain={domain}"]), domain, refine=budget)
         pages = None if out is None else Path(out) / domain
-        scored = [score_file(run, path, true_up(path.name, table), pages) for path in files]
+        # outputs named as `geocode reconstruct` names them: scan.obj, scan.ply -> scan-obj.*, scan-ply.*
+        plan = None if pages is None else plan_run(folder / domain, pages, recursive=False)
+        jobs = plan.jobs if plan else [Job(p, p.name, p) for p in inputs_of(folder / domain, recursive=False)]
+        run = Reconstructor(compose([*overrides, f"domain={domain}"]), domain, refine=budget)
+        if plan:
+            plan.write_record()
+        scored = [score_file(run, job, true_up(job.path.name, table), pages) for job in jobs]
         if pages is not None:
             page.write_page([entry for _, entry in scored], pages, f"geocode bench real: {domain}",
                             note=PAGE_NOTE)
@@ -92,13 +96,15 @@ def record(checkpoint: Path, numbers: dict) -> None:
     write_card(run)
 
 
-def score_file(run, path: Path, truth: str | None, out: Path | None = None) -> tuple[dict, object]:
-    """One file's scores, and its page entry where its outputs are written to `out`."""
+def score_file(run, job, truth: str | None, out: Path | None = None) -> tuple[dict, object]:
+    """One file's scores (`job`: a `plan.Job`), and its page entry where its outputs are written
+    to `out`."""
     from geocode.reconstruct.run import write_outputs
 
+    path = job.path
     started = time.perf_counter()
     result = run(path)
-    entry = None if out is None else write_outputs(run, result, out / path.stem, out, path.name)
+    entry = None if out is None else write_outputs(run, result, job.stem, out, job.name)
     seconds = time.perf_counter() - started
     up = run.up
     run.up = truth or result.frame.pose.up       # the baselines: the true up axis where known

@@ -380,13 +380,15 @@ def open_image(path: Path) -> Image.Image:
 # -- sampling -------------------------------------------------------------------------------------
 
 def surface_points(geometry: Geometry, n: int, rng: np.random.Generator) -> np.ndarray:
-    """n points of the input, (n, 3) float64 in its own frame: area-weighted surface samples
-    of a mesh; a cloud's own points, subsampled without repeats (or all of them, with
-    repeats to reach n, when it has fewer)."""
+    """n points of the input, (n, 3) float64 in its own frame, in random order (`rng`), so that
+    any first k of them are spread over the whole input: area-weighted surface samples of a
+    mesh; a cloud's own points, subsampled without repeats (or all of them, with repeats to
+    reach n, when it has fewer). A scan stores its points row by row: in the file's order,
+    its first points are one part of the object."""
     if geometry.mesh is not None:
         return surface_samples(geometry.mesh.vertices, geometry.mesh.faces, n, rng)
     points = geometry.points
     if len(points) >= n:
-        return points[np.sort(rng.choice(len(points), n, replace=False))]
+        return points[rng.choice(len(points), n, replace=False)]
     extra = rng.choice(len(points), n - len(points), replace=True)
-    return np.concatenate([points, points[extra]])
+    return points[rng.permutation(np.concatenate([np.arange(len(points)), extra]))]

@@ -83,12 +83,15 @@ class Entry:
     result_drawing: object = None
     unit: str = ""                  # of `before` / `after` (drawings: " px")
     pictures: dict[str, str] = field(default_factory=dict)   # role -> path, set by render_entry
+    points: int | None = None       # a cloud's points (its caption), kept once its picture is drawn
 
     def __post_init__(self):
         if self.kind not in KINDS and not (self.error and self.kind == ""):
             raise ValueError(f"page entry {self.name!r}: kind {self.kind!r} is not one of {KINDS}")
         if self.error is None and (self.input is None or self.result is None) and not self.pictures:
             raise ValueError(f"page entry {self.name!r}: give its input and result (or an error)")
+        if self.kind == "cloud" and self.input is not None:
+            self.points = len(self.input)
 
 
 # -- pictures ------------------------------------------------------------------------------------
@@ -339,8 +342,8 @@ def pictures_html(entry: Entry) -> str:
 
 
 def input_caption(entry: Entry) -> str:
-    if entry.kind == "cloud" and entry.input is not None:
-        n = len(entry.input)
+    if entry.kind == "cloud" and entry.points is not None:
+        n = entry.points
         shown = min(n, CLOUD_POINTS)
         if shown < n:
             return f"input cloud: {shown:,} of {n:,} points, as spheres"

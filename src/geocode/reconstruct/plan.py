@@ -73,8 +73,6 @@ def output_suffixes(path: Path) -> tuple[str, ...]:
 def plan_run(input_path: Path, out_dir: Path, recursive: bool, candidates: int = 1) -> Plan:
     """The run's inputs and where each one's outputs go (see the module's docstring); UserError
     where an output could not avoid a file that reconstruct did not write."""
-    from geocode.reconstruct.page import picture_path, picture_roles
-
     recorded = read_record(out_dir)
     files = inputs_of(input_path, recursive, ours={(out_dir / f).resolve() for f in recorded})
     root = input_path if input_path.is_dir() else input_path.parent
@@ -94,9 +92,18 @@ def plan_run(input_path: Path, out_dir: Path, recursive: bool, candidates: int =
                             f"move it away or {FIX}")
     stems = output_stems(names, [output_suffixes(p) for p in files], taken)
     jobs = [Job(path, name, out_dir / stem) for path, name, stem in zip(files, names, stems, strict=True)]
-    outputs = [f"{stem}{s}" for stem, path in zip(stems, files, strict=True) for s in output_suffixes(path)]
-    pictures = [picture_path(name, role) for name in names for role in picture_roles(candidates)]
-    return Plan(out_dir, jobs, [*outputs, *pictures, *PAGE_FILES], recorded)
+    return Plan(out_dir, jobs, [*(f for job in jobs for f in job_files(job, out_dir, candidates)), *PAGE_FILES],
+                recorded)
+
+
+def job_files(job: Job, out_dir: Path, candidates: int = 1) -> list[str]:
+    """The files one input's reconstruction may write, relative to `out_dir`: its outputs and
+    its pictures."""
+    from geocode.reconstruct.page import picture_path, picture_roles
+
+    stem = job.stem.relative_to(out_dir).as_posix()
+    return [*(f"{stem}{s}" for s in output_suffixes(job.path)),
+            *(picture_path(job.name, role) for role in picture_roles(candidates))]
 
 
 def output_stems(names: list[str], suffixes: list[tuple[str, ...]], taken) -> list[str]:

@@ -355,23 +355,38 @@ def reconstruct(cfg, domain: str, input_path: Path, out_dir: Path, checkpoint: P
     all inputs. `workers` processes: one file's fit shares its candidates between them (this
     one included); a folder's files are spread over them (`geocode.reconstruct.workers`), each
     reconstructing whole files, and gathered here in input order."""
-    from contextlib import closing
-
     from geocode.reconstruct import page
     from geocode.reconstruct.plan import plan_run
-    from geocode.reconstruct.workers import spread
-    from geocode.timing import Progress
 
     plan = plan_run(Path(input_path), Path(out_dir), recursive, candidates)
     settings = {"domain": domain, "checkpoint": checkpoint, "refine": refine, "up": up, "candidates": candidates}
+    many = len(plan.jobs) > 1
+    entries, summaries = reconstruct_jobs(cfg, settings, plan, workers, alone=not many)
+    page.write_page(entries, plan.out_dir, page_title(domain), note=PAGE_NOTE)
+    return folder_summary(summaries, plan.out_dir) if many else summaries[0]
+
+
+def page_title(domain: str) -> str:
+    return f"geocode reconstruct {domain}"
+
+
+def reconstruct_jobs(cfg, settings: dict, plan, workers: int | None = None, alone: bool = False):
+    """(page entries, summaries) of the plan's inputs, in order: reconstructed by `workers`
+    processes (default: one per core, at most WORKERS), a file's fit sharing its candidates
+    between them or, for several files, each reconstructing whole files. An input `alone`
+    stops the run on its UserError; else that is its entry."""
+    from contextlib import closing
+
+    from geocode.reconstruct.workers import spread
+    from geocode.timing import Progress
+
     workers = default_workers() if workers is None else workers
     processes = min(workers, len(plan.jobs))
     if processes > 1:
         outcomes = spread(cfg, settings, plan, processes, workers // processes, Reconstructor, reconstruct_file)
     else:
-        outcomes = in_process(cfg, settings, plan, workers)
-    many = len(plan.jobs) > 1
-    progress = Progress(f"reconstruct {domain}", len(plan.jobs), log, every=0.0 if many else 1e9)
+        outcomes = in_process(cfg, settings, plan, workers, alone)
+    progress = Progress(f"reconstruct {settings['domain']}", len(plan.jobs), log, every=1e9 if alone else 0.0)
     entries, summaries = [], []
     with closing(outcomes):
         for entry, summary in outcomes:
@@ -380,10 +395,13 @@ def reconstruct(cfg, domain: str, input_path: Path, out_dir: Path, checkpoint: P
             entries.append(entry)
             summaries.append(summary)
             progress.step()
-    page.write_page(entries, plan.out_dir, f"geocode reconstruct {domain}", note=PAGE_NOTE)
-    if not many:
-        return summaries[0]
-    progress.finish()
+    if not alone:
+        progress.finish()
+    return entries, summaries
+
+
+def folder_summary(summaries: list[dict], out_dir: Path) -> dict:
+    """A folder run's counts, the medians of its distances and seconds, and its page."""
     done = [s for s in summaries if "error" not in s]
     seconds = [s["seconds"] for s in done]
     # the medians of each kind of distance (3D inputs' Chamfer, drawings' px) apart
@@ -394,15 +412,14 @@ def reconstruct(cfg, domain: str, input_path: Path, out_dir: Path, checkpoint: P
             **medians,
             "seconds_median": round(float(np.median(seconds)), 2) if seconds else None,
             "seconds_range": [min(seconds), max(seconds)] if seconds else None,
-            "page": str(plan.out_dir / "index.html")}
+            "page": str(Path(out_dir) / "index.html")}
 
 
-def in_process(cfg, settings: dict, plan, workers: int):
-    """(page entry, summary) of each input, reconstructed in this process, in order. A single
-    input's record goes with its outputs (a failed one leaves nothing); a folder's is written
-    first, as its page will be whatever happens."""
+def in_process(cfg, settings: dict, plan, workers: int, alone: bool):
+    """(page entry, summary) of each input, reconstructed in this process, in order. An input
+    `alone` has its record go with its outputs (a failed one leaves nothing); a folder's is
+    written first, as its page will be whatever happens."""
     run = Reconstructor(cfg, **settings, workers=workers)
-    alone = len(plan.jobs) == 1
     if not alone:
         plan.write_record()
     for job in plan.jobs:
@@ -428,11 +445,11 @@ def reconstruct_file(run: Reconstructor, job, out_dir: Path, alone: bool = False
 
 
 def drawn(entry):
-    """A page entry whose pictures are drawn, without the meshes they were drawn from (a
-    cloud's points stay: the page counts them)."""
+    """A page entry whose pictures are drawn, without the meshes and points they were drawn
+    from (a cloud's count of points stays: the page says it)."""
     from dataclasses import replace
 
-    return replace(entry, input=entry.input if entry.kind == "cloud" else None, result=None, result_drawing=None,
+    return replace(entry, input=None, result=None, result_drawing=None,
                    candidates=[replace(c, mesh=None) for c in entry.candidates])
 
 

@@ -1,0 +1,198 @@
+"""A collection of a user's own files, reconstructed by the workflow (workflow/rules/reconstruct.smk):
+
+    snakemake -j2 results/reconstruct/scans --config reconstruct='{scans: {domain: chair, inputs: scans/}}'
+
+The collection's inputs, and their names, are those of `geocode reconstruct scans/ -o
+results/reconstruct/scans` (`geocode.reconstruct.plan`), taken in batches of `batch` inputs
+in that order. Each batch is one job (`batch_step`): its inputs reconstructed as a folder run
+reconstructs them, their outputs and pictures written under the same names in the batch's own
+folder (<paths.runs>/reconstruct/<name>/batch-<n>/, emptied first), then its record
+(batch-<n>.json: each input's page entry, summary and files) last, so that a batch stopped
+half-way has no record and is redone whole. The page job (`page_step`) links every batch's
+files into the collection's folder (copies where links cannot be made) and writes the page,
+summary.csv and the folder's record, as `geocode reconstruct` does.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Annotated
+
+import yaml
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+from geocode.errors import UserError
+from geocode.reconstruct.plan import Job, Plan, job_files, plan_run
+from geocode.settings import NAME, Expect, Flag, optional, whole
+
+BATCH = 8      # inputs per job: a job's start (Blender, the network, the training shapes) is a
+               # few seconds, a real mesh's reconstruction 15-30 s
+FORM = "{<name>: {domain: <domain>, inputs: <folder>}}"
+
+
+class Spec(BaseModel):
+    """One collection as --config reconstruct gives it: its domain, its folder of inputs (or
+    one file), the inputs per job, the program evaluations of each fit (null:
+    eval.reconstruct_budget) and whether the folder's subfolders are read too."""
+
+    model_config = ConfigDict(extra="forbid", strict=True)
+    domain: Annotated[str, Expect("a domain of the run")]
+    inputs: Annotated[str, Field(min_length=1), Expect("a folder of meshes, scans, clouds or drawings")]
+    batch: whole(1) = BATCH
+    budget: optional(whole(0)) = None
+    recursive: Flag = False
+
+
+@dataclass(frozen=True)
+class Collection:
+    name: str
+    domain: str
+    inputs: Path
+    batch: int
+    budget: int | None
+    recursive: bool
+    plan: Plan              # its inputs and their names in the collection's folder
+
+    def batches(self) -> list[list[Job]]:
+        return batches(self.plan.jobs, self.batch)
+
+
+def batches(jobs: list[Job], size: int) -> list[list[Job]]:
+    return [jobs[i:i + size] for i in range(0, len(jobs), size)]
+
+
+def collections(value, domains: list[str], out_dir, work_dir) -> dict[str, Collection]:
+    """The collections of --config reconstruct (None: none), each checked and planned;
+    `out_dir(name)` and `work_dir(name)` are its folders. UserError (one line) on a bad one."""
+    if value is None:
+        return {}
+    if not isinstance(value, dict):
+        raise UserError(f"reconstruct={value!r}", "not a mapping", f"give {FORM}")
+    return {name: collection(name, spec, domains, Path(out_dir(name)), Path(work_dir(name)))
+            for name, spec in value.items()}
+
+
+def collection(name, spec, domains: list[str], out: Path, work: Path) -> Collection:
+    if not isinstance(name, str) or not NAME.fullmatch(name):
+        raise UserError(f"reconstruct: {name!r}", "not a plain name (it names a folder)",
+                        "use letters, digits, _, - and . (not a path)")
+    where = f"reconstruct.{name}"
+    if not isinstance(spec, dict):
+        raise UserError(f"{where}={spec!r}", "not a mapping", f"give {FORM}")
+    try:
+        spec = Spec.model_validate({k: typed(v) if k in ("batch", "budget", "recursive") else v
+                                    for k, v in spec.items()})
+    except ValidationError as exc:
+        raise UserError(spec_error(where, exc.errors()[0])) from None
+    if spec.domain not in domains:
+        raise UserError(f"{where}.domain={spec.domain}", "not a domain of this run",
+                        f"use one of {', '.join(domains) or 'none'} (the run's domains: --config domains=[...])")
+    inputs = Path(spec.inputs)
+    for folder in (out, work):
+        if inputs.resolve().is_relative_to(folder.resolve()) or (
+                spec.recursive and folder.resolve().is_relative_to(inputs.resolve())):
+            raise UserError(f"{where}.inputs={spec.inputs}", f"overlaps {folder}, which the workflow writes",
+                            "keep the inputs in a folder of their own")
+    try:
+        plan = plan_run(inputs, out, spec.recursive)
+    except UserError as exc:                          # a missing folder, no inputs in it
+        raise UserError(f"{where}.inputs: {exc}") from None
+    return Collection(name, spec.domain, inputs, spec.batch, spec.budget, spec.recursive, plan)
+
+
+def typed(value):
+    """A value as YAML reads it: --config gives every value inside a mapping as text ("8", "null")."""
+    return yaml.safe_load(value) if isinstance(value, str) else value
+
+
+def spec_error(where: str, error: dict) -> str:
+    key = ".".join(map(str, error["loc"]))
+    if error["type"] == "extra_forbidden":
+        return f"{where}.{key}: unknown key; use {', '.join(Spec.model_fields)}"
+    field = Spec.model_fields[key]
+    expect = next(str(m) for m in field.metadata if isinstance(m, Expect))
+    if error["type"] == "missing":
+        return f"{where}.{key}: missing; give {expect}"
+    return f"{where}.{key}={error['input']!r}: not valid; give {expect}"
+
+
+# -- the workflow's steps ----------------------------------------------------------------------
+
+def batch_step(cfg, domain: str, inputs: Path, out_dir: Path, work: Path, batch: int, size: int,
+               checkpoint: Path | None = None, budget: int | None = None, recursive: bool = False,
+               workers: int = 1) -> dict:
+    """Reconstruct the collection's batch `batch` (of `size` inputs) into its folder under
+    `work`, and write its record last."""
+    from geocode import paths
+    from geocode.meshio import write_text
+    from geocode.reconstruct.run import reconstruct_jobs
+
+    plan = plan_run(Path(inputs), Path(out_dir), recursive)
+    parts = batches(plan.jobs, size)
+    if not 0 <= batch < len(parts):
+        raise UserError(f"--batch {batch}", f"the collection has {len(parts)} batches of {size}",
+                        f"give 0 .. {len(parts) - 1}")
+    jobs = parts[batch]
+    folder = paths.collection_batch_dir(work, batch)
+    shutil.rmtree(folder, ignore_errors=True)      # what a stopped try left: the batch is redone whole
+    files = {job.name: job_files(job, plan.out_dir) for job in jobs}
+    moved = Plan(folder, [Job(j.path, j.name, folder / j.stem.relative_to(plan.out_dir)) for j in jobs],
+                 [f for names in files.values() for f in names], [])
+    settings = {"domain": domain, "checkpoint": checkpoint, "refine": budget, "up": "auto", "candidates": 1}
+    entries, summaries = reconstruct_jobs(cfg, settings, moved, workers)
+    record = [{"name": e.name, "entry": asdict(e), "summary": s,
+               "files": [f for f in files[e.name] if (folder / f).is_file()]}
+              for e, s in zip(entries, summaries, strict=True)]
+    write_text(paths.collection_batch_file(work, batch), json.dumps(record, indent=1, default=plain) + "\n")
+    return {"batch": batch, "inputs": len(record), "failed": sum("error" in s for s in summaries)}
+
+
+def page_step(domain: str, inputs: Path, out_dir: Path, work: Path, size: int, recursive: bool = False) -> dict:
+    """The collection's folder: every batch's files linked in, the page, summary.csv and the
+    folder's record."""
+    from geocode import paths
+    from geocode.reconstruct import page
+    from geocode.reconstruct.run import PAGE_NOTE, folder_summary, page_title
+
+    out_dir = Path(out_dir)
+    plan = plan_run(Path(inputs), out_dir, recursive)
+    items = []
+    for batch in range(len(batches(plan.jobs, size))):
+        record = json.loads(paths.collection_batch_file(work, batch).read_text())
+        items += [(paths.collection_batch_dir(work, batch), item) for item in record]
+    if [item["name"] for _, item in items] != [job.name for job in plan.jobs]:
+        raise UserError(inputs, "its files changed since the batches were reconstructed",
+                        "run the workflow again: it redoes the batches")
+    plan.write_record()
+    for folder, item in items:
+        for name in item["files"]:
+            place(folder / name, out_dir / name)
+    entries = [entry_of(item["entry"]) for _, item in items]
+    page.write_page(entries, out_dir, page_title(domain), note=PAGE_NOTE)
+    return folder_summary([item["summary"] for _, item in items], out_dir)
+
+
+def place(source: Path, target: Path) -> None:
+    """`source` at `target` too: a hard link (no space taken), or a copy across file systems."""
+    target.parent.mkdir(parents=True, exist_ok=True)
+    target.unlink(missing_ok=True)      # an earlier gathering's (the plan's names avoid every other file)
+    try:
+        os.link(source, target)
+    except OSError:
+        shutil.copy2(source, target)
+
+
+def entry_of(record: dict):
+    """A drawn page entry from its record (`dataclasses.asdict` of it)."""
+    from geocode.reconstruct.page import Candidate, Entry
+
+    return Entry(**{**record, "candidates": [Candidate(**c) for c in record["candidates"]]})
+
+
+def plain(value):
+    """A numpy number as JSON's."""
+    return value.item()
