@@ -20,14 +20,14 @@ if the drawing came from those, and a view a quarter-turn away draws a shape of 
 and depth alike, which the search cannot tell apart from the drawing but the program's frame
 can (on the table test sketches this took the fit from 0.92x to 0.43x of the network's
 distance). A view that near draws no such twin, and a drawing from beside the trained views
-(the test sets' third camera, 20 degrees off) starts best there (docs/wild.md). Given the network's reader
+(the test sets' third camera, 20 degrees off) starts best there (docs/design.md#drawing-fit). Given the network's reader
 (`checkpoints.reader`), the best start is first corrected by the network itself
 (`drawing_feedback`, `feedback` rounds): its reading of our drawing of the answer is compared
 with its reading of the input, and the difference moves the continuous parameters, which
 cancels what the network misreads alike in both; the best round, by the drawing distance,
 replaces the start (on 30 chair test sketches of the trained cameras the fitted Chamfer
 distance went from 0.58x to 0.50x of the network's, for six of the 800 evaluations; on 100
-vases from 0.77x to 0.73x: docs/wild.md, Drawings, measured).
+vases from 0.77x to 0.73x: docs/design.md#drawing-fit).
 The network's answer may be searched once for each of the first few options of the discrete
 parameter it is least sure of (`held_options`; how many: `fit_drawing`'s `branches`, per
 domain in the config's eval.sketch_fit_branches), that option held, each search on an equal
@@ -49,7 +49,7 @@ Branches, measured on 30 test sketches of the trained cameras (`geocode bench fi
 --modality sketch -n 30 --split test`, 800 evaluations), the fitted Chamfer distance against the network's:
 three branches took the chair from 0.48x to 0.38x and the cabinet from 0.42x to 0.39x; the
 table from 0.43x to 0.55x and the lamp from 0.15x to 0.22x, whose searches need the whole
-budget; the vase from 0.82x to 0.67x (with today's model 0.59x to 0.55x; docs/wild.md, Drawings),
+budget; the vase from 0.82x to 0.67x; docs/design.md#drawing-fit),
 and searching each of its branches in both sweep orders (1600 evaluations) from 0.53x to 0.49x
 (novel camera 0.71x to 0.70x).
 """
@@ -359,7 +359,7 @@ def finish_search(recipe, tuning: DrawingFitSettings, draw, opening: Opening, bu
     tuning.sweep_steps, sweeps one coordinate at a time, the discrete switches before the continuous sweep
     (`switches_first`: a switch judged on the start's shape) or after it (judged on a shape
     fitted around the start's structure; each order finds answers the other misses,
-    docs/wild.md, Drawings), then CMA-ES on all. (values, view, drawing distance less the
+    docs/design.md#drawing-fit), then CMA-ES on all. (values, view, drawing distance less the
     prior, curve) of the best candidate; `draw` as `Drawer`."""
     space, cams = SearchSpace(recipe, opening.start), CameraSpace(opening.view, tuning)
     curve: list[float] = []
@@ -392,7 +392,7 @@ def held_options(recipe, start: Start, k: int) -> list[Start]:
     than one option; `checkpoints.ranked_predictions` lists the least sure first), that choice
     held; [start] when none has. Near the fit's residual a drawing does not tell a vase's
     handle count, say, from widths that imitate it, so each choice gets a search of its own
-    and the drawings' distances judge only finished searches (docs/wild.md, Drawings)."""
+    and the drawings' distances judge only finished searches (docs/design.md#drawing-fit)."""
     shown = recipe.shown(start.values)
     for name, values in start.options.items():
         if len(values) > 1 and shown[name] and k > 1:
