@@ -9,7 +9,7 @@ from pathlib import Path
 from snakemake.exceptions import WorkflowError
 
 from geocode import paths
-from geocode.config import ConfigError, compose, domains, training_key, variants
+from geocode.config import ConfigError, compose, domains, max_epochs, training_key, variants
 from geocode.errors import UserError
 from geocode.reconstruct.collection import collections
 
@@ -120,6 +120,20 @@ def training_threads(wildcards):
         return max(1, workflow.cores // 2)
     except WorkflowError:
         return 2
+
+
+# Job order on a few cores (docs/design.md#job-order): a domain's data one domain after the other,
+# the longest-training domain first, so that its training starts within minutes; a training as soon
+# as its data is there, the joint model's before the others; evaluation fills the gaps.
+DATA_ORDER = sorted(DOMAINS, key=lambda d: max_epochs(CFG, "joint", d))
+
+
+def data_priority(wildcards):
+    return 10 + DATA_ORDER.index(wildcards.domain)
+
+
+def training_priority(wildcards):
+    return 100 + (1 if wildcards.variant == "joint" else 0)
 
 
 def training_settings(wildcards):

@@ -13,6 +13,7 @@ rule sample:
         log_path(CFG.paths.data, "sample", "{domain}"),
     params:
         args=lambda w: step_args(w.domain),
+    priority: data_priority
     threads: 1
     resources:
         mem_mb=2000,
@@ -32,6 +33,7 @@ rule export:
         log_path(CFG.paths.data, "export", "{domain}-{split}-{shard}"),
     params:
         args=lambda w: step_args(w.domain),
+    priority: data_priority
     threads: 1
     resources:
         mem_mb=3000,
@@ -48,6 +50,7 @@ rule sketch:
         log_path(CFG.paths.data, "sketch", "{domain}-{split}-{shard}"),
     params:
         args=lambda w: step_args(w.domain),
+    priority: data_priority
     threads: 1
     resources:
         mem_mb=3000,
@@ -64,6 +67,7 @@ rule points:
         log_path(CFG.paths.data, "points", "{domain}-{split}-{shard}"),
     params:
         args=lambda w: step_args(w.domain),
+    priority: data_priority
     threads: 1
     resources:
         mem_mb=2000,

@@ -14,6 +14,7 @@ rule simplify:
         log_path(CFG.paths.data, "simplify", "{domain}-{factor}"),
     params:
         args=lambda w: step_args(w.domain),
+    priority: data_priority
     threads: 1
     resources:
         mem_mb=3000,
@@ -31,7 +32,7 @@ rule predict:
         log_path(CFG.paths.runs, "predict", "{domain}-{variant}"),
     params:
         args=lambda w: step_args(w.domain),
-    threads: 2
+    threads: 1
     resources:
         mem_mb=6000,
     shell:

@@ -15,6 +15,7 @@ rule train:
         out=str(run_folder("{domain}", "{variant}")),
         settings=training_settings,
     threads: training_threads
+    priority: training_priority
     resources:
         mem_mb=8000,
         gpu=GPUS,
