@@ -15,7 +15,7 @@ PACKAGE = "geocode"
 # with it too) and steps/ (the workflow's stages).
 LAYERS = ("reconstruct", "steps", "tools", "bench", "cli")
 # The steps in the workflow's order: a step may import the steps before it, never one after.
-STEPS = ("dataset", "train_data", "train", "evaluate", "tables", "report")
+STEPS = ("dataset", "train_data", "train", "evaluate", "tables", "real_shapes", "report")
 
 
 def module_files() -> dict[str, Path]:

@@ -100,6 +100,20 @@ def test_every_input_kind_gives_values_mesh_preview_and_blend(files, tmp_path, c
         assert summary["chamfer_after"] <= summary["chamfer_before"]
 
 
+def test_the_program_defaults_are_measured_in_the_pose_found(files, tmp_path, capsys):
+    """The defaults' distance to the default vase is sampling noise, to another vase it is not;
+    no training shapes here, so no nearest one."""
+    Program.load("vase").evaluate({}).export(tmp_path / "default.obj")
+    distances = {}
+    for name, path in (("default", tmp_path / "default.obj"), ("other", files["root"] / "vase.obj")):
+        assert main(["reconstruct", "vase", str(path), "-o", str(tmp_path / name), "--up", "z",
+                     "--checkpoint", str(files["ckpt"]), "--json", "--budget", "0"]) == 0
+        summary = json.loads(capsys.readouterr().out)
+        assert "chamfer_nearest" not in summary
+        distances[name] = summary["chamfer_defaults"]
+    assert distances["default"] < 1e-4 < distances["other"] / 10
+
+
 def test_a_drawing_is_fitted_with_its_camera(files, tmp_path, capsys):
     """--budget on a drawing searches shape and camera within the budget, and the page and
     the preview show our line drawing of the result between the drawing and the shape."""
@@ -144,6 +158,7 @@ def test_a_folder_is_reconstructed_with_a_page(files, tmp_path, capsys):
     summary = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     seconds = summary.pop("seconds_median"), *summary.pop("seconds_range")
     before, after = summary.pop("chamfer_before_median"), summary.pop("chamfer_after_median")
+    assert summary.pop("chamfer_defaults_median") > 0      # no training shapes here: no nearest one
     assert summary == {"inputs": 3, "reconstructed": 2, "failed": 1, "page": str(out / "index.html")}
     assert 0 < after <= before   # the same file twice: its own distances, the fit never worse
     assert 0 < seconds[1] <= seconds[0] <= seconds[2]

@@ -282,12 +282,47 @@ def test_a_collection_is_reconstructed_in_batches_and_a_rerun_redoes_only_what_i
     assert (records / "batch-0.json").stat().st_mtime_ns == kept
 
 
+def test_the_real_shape_table_scores_each_file_against_the_baselines(smoke_run, tmp_path):
+    """results/real_shapes for a folder of "real" vases: a training shape itself, a test shape
+    and a squashed copy of it; every file measured four ways in the pose the tool finds (the
+    training shape nearer its nearest training shape than the others are, nearer than the
+    defaults), the means with intervals, the paper's rows beside, the folder's page made."""
+    work = tmp_path / "work"
+    shutil.copytree(smoke_run, work, symlinks=True)
+    data = work / "data" / "smoke" / "vase"
+    vases = work / "vases"
+    vases.mkdir()
+    shutil.copy(sorted((data / "train" / "shapes").glob("*.obj"))[0], vases / "seen.obj")
+    test = trimesh.load(sorted((data / "test" / "shapes").glob("*.obj"))[0], force="mesh")
+    test.export(vases / "unseen.obj")
+    test.apply_scale([1.0, 1.0, 0.5])
+    test.export(vases / "squashed.obj")
+    snakemake(work, "-j2", "results/smoke/real_shapes", "--config", "profile=smoke",
+              "real={vase: {inputs: vases, budget: 3}}")
+    out = work / "results" / "smoke" / "real_shapes"
+    shapes = pd.read_csv(out / "shapes.csv", comment="#").set_index("file")
+    assert sorted(shapes.index) == ["seen.obj", "squashed.obj", "unseen.obj"] and (shapes.error.isna()).all()
+    assert (shapes.chamfer_after <= shapes.chamfer_before).all()
+    assert shapes.chamfer_nearest.idxmin() == "seen.obj"
+    assert (shapes.chamfer_nearest < shapes.chamfer_defaults).all()
+    table = pd.read_csv(out / "real_shapes.csv", comment="#").set_index(["row", "domain"])
+    fit = table.loc[("network + fit", "vase")]
+    assert fit["mean"] == pytest.approx(shapes.chamfer_after.mean(), rel=1e-4) and fit["n"] == 3
+    assert fit["CI low"] <= fit["mean"] <= fit["CI high"]
+    assert table.loc[("GeoCode (paper)", "vase"), "mean"] == 0.0112
+    text = (out / "real_shapes.md").read_text()
+    assert "| nearest training shape | " in text and "StructureNet (paper)" in text
+    page = work / "results" / "smoke" / "reconstruct" / "real_shapes-vase" / "index.html"
+    assert "squashed.obj" in page.read_text()
+
+
 @pytest.mark.parametrize("spec, line", [
     ("{scans: {domain: chiar, inputs: scans}}", "reconstruct.scans.domain=chiar: not a domain of this run"),
     ("{scans: {domain: vase, inputs: nowhere}}", "reconstruct.scans.inputs: nowhere: no such file or folder"),
     ("{scans: {domain: vase, inputs: empty}}", "reconstruct.scans.inputs: empty: no mesh, cloud or drawing files"),
     ("{a/b: {domain: vase, inputs: scans}}", "reconstruct: 'a/b': not a plain name (it names a folder)"),
     ("{scans: {domain: vase, inputs: scans, batch: 0}}", "reconstruct.scans.batch=0: not valid; give a whole"),
+    ("{real_shapes-vase: {domain: vase, inputs: scans}}", "names starting real_shapes- are --config real's"),
 ])
 def test_a_bad_collection_stops_before_any_job_with_one_line(tmp_path, spec, line):
     (tmp_path / "scans").mkdir()
@@ -295,6 +330,22 @@ def test_a_bad_collection_stops_before_any_job_with_one_line(tmp_path, spec, lin
     (tmp_path / "empty").mkdir()
     result = snakemake(tmp_path, "-n", "results/smoke/reconstruct/scans", "--config", "profile=smoke",
                        f"reconstruct={spec}", check=False)
+    assert result.returncode != 0
+    assert line in result.stdout + result.stderr
+    assert "Traceback" not in result.stdout + result.stderr
+
+
+@pytest.mark.parametrize("config, line", [
+    ([], "--config real names no folder; give real="),
+    (["real={chiar: scans}"], "real.chiar: not a domain of this run"),
+    (["real={vase: nowhere}"], "real.vase.inputs: nowhere: no such file or folder"),
+    (["real={vase: {domain: chair, inputs: scans}}"], "real.vase="),
+])
+def test_a_bad_real_shape_folder_stops_before_any_job_with_one_line(tmp_path, config, line):
+    (tmp_path / "scans").mkdir()
+    (tmp_path / "scans" / "a.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    result = snakemake(tmp_path, "-n", "results/smoke/real_shapes", "--config", "profile=smoke", *config,
+                       check=False)
     assert result.returncode != 0
     assert line in result.stdout + result.stderr
     assert "Traceback" not in result.stdout + result.stderr

@@ -328,6 +328,14 @@ def parser() -> argparse.ArgumentParser:
         if name == "train":
             renamed(c, "--out", added[0])
         c.set_defaults(run=run_step)
+    c = command(sub, "real-shapes", "the real-shape table of workflow collections' batch records (pipeline "
+                "step; takes Hydra overrides key=value)",
+                "geocode real-shapes -o results/real_shapes --records chair runs/mini/reconstruct/"
+                "real_shapes-chair/batch-0.json")
+    c.add_argument("--records", required=True, nargs="+", action="append", metavar=("DOMAIN", "RECORD"),
+                   help="a domain and its batch records; once per domain")
+    c.add_argument(*to_folder[0], **to_folder[1])
+    c.set_defaults(run=cmd_real_shapes)
     c = command(sub, "reconstruct-page", "a workflow collection's batches gathered: its folder, page and "
                 "summary.csv (pipeline step)", scans.format("reconstruct-page"))
     for flags, options in collection:
@@ -528,6 +536,12 @@ def cmd_reconstruct_batch(args):
     return batch_step(step_config(args, f"domain={args.domain}"), args.domain, args.input, args.output, args.work,
                       args.batch, args.batch_size, checkpoint=args.checkpoint, budget=args.budget,
                       recursive=args.recursive, workers=args.workers)
+
+
+def cmd_real_shapes(args):
+    from geocode.steps.real_shapes import real_shapes_step
+
+    return real_shapes_step(step_config(args), args.records, args.output)
 
 
 def cmd_reconstruct_page(args):
@@ -779,7 +793,7 @@ def cmd_report(args):
 BLENDER = {cmd_programs, cmd_program_show, cmd_program_build, cmd_shape, cmd_gallery, cmd_export,
            cmd_sketch, cmd_rebuild, cmd_reconstruct, cmd_reconstruct_batch, cmd_mix, cmd_interpolate, cmd_addon_build}
 # Commands that take Hydra overrides (key=value) after their options.
-OVERRIDES = {cmd_reconstruct, cmd_reconstruct_batch,
+OVERRIDES = {cmd_reconstruct, cmd_reconstruct_batch, cmd_real_shapes,
              cmd_report, cmd_sample, cmd_export, cmd_sketch, cmd_points, cmd_train, cmd_config,
              cmd_simplify, cmd_predict, cmd_rebuild, cmd_metrics, cmd_tables, cmd_timings, cmd_bench_dataset,
              cmd_bench_fit, cmd_bench_turns, cmd_bench_real, cmd_bench_span}

@@ -18,6 +18,7 @@ back as it was: a Snakemake wildcard.
     <paths.results>/tables/, report/index.html           (the default profile's: results/)
     <paths.results>/reconstruct/<name>/                  a collection (workflow target), its batches
         in <paths.runs>/reconstruct/<name>/batch-<n>/, batch-<n>.json
+    <paths.results>/real_shapes/                         the real-shape table (collections real_shapes-<domain>)
     logs/<the folder a job writes>/<rule>/<name>.log
 """
 
@@ -248,6 +249,11 @@ def collection_dir(cfg, name: str) -> Path:
     """<paths.results>/reconstruct/<name>/: the collection's outputs, page and summary.csv, as
     `geocode reconstruct <folder> -o` writes them."""
     return Path(cfg.paths.results) / "reconstruct" / name
+
+
+def real_shapes_dir(cfg) -> Path:
+    """<paths.results>/real_shapes/: the real-shape table of --config real's folders."""
+    return Path(cfg.paths.results) / "real_shapes"
 
 
 def collection_work(cfg, name: str) -> Path:

@@ -11,7 +11,7 @@ from snakemake.exceptions import WorkflowError
 from geocode import paths
 from geocode.config import ConfigError, compose, domains, max_epochs, training_key, variants
 from geocode.errors import UserError
-from geocode.reconstruct.collection import collections
+from geocode.reconstruct.collection import collections, real_collections
 
 envvars:
     "PATH",
@@ -35,8 +35,8 @@ def as_overrides(key, value):
     return [f"{key}={value}"]
 
 
-# Keys of the workflow alone, not of conf/: the collections of rules/reconstruct.smk.
-WORKFLOW_KEYS = ("reconstruct",)
+# Keys of the workflow alone, not of conf/: the collections and real shapes of rules/reconstruct.smk.
+WORKFLOW_KEYS = ("reconstruct", "real")
 OVERRIDES = [o for k, v in {"profile": "mini", **config}.items() if k not in WORKFLOW_KEYS for o in as_overrides(k, v)]
 try:
     CFG = compose(OVERRIDES)
@@ -149,8 +149,23 @@ def training_settings(wildcards):
 try:
     COLLECTIONS = collections(config.get("reconstruct"), DOMAINS, lambda name: paths.collection_dir(CFG, name),
                               lambda name: paths.collection_work(CFG, name))
+    # --config real: a collection per domain, for the real-shape table (rules/reconstruct.smk)
+    REAL = real_collections(config.get("real"), DOMAINS, lambda name: paths.collection_dir(CFG, name),
+                            lambda name: paths.collection_work(CFG, name))
 except UserError as exc:
     raise WorkflowError(f"--config {exc}") from None
+COLLECTIONS.update(REAL)
+
+
+def requested(path):
+    """Whether the command line that started Snakemake names `path` as a target (the
+    workflow's own settings do not hold the targets while the Snakefile is read)."""
+    return any(Path(a) == Path(path) for a in sys.argv[1:] if not a.startswith("-"))
+
+
+if not REAL and requested(paths.real_shapes_dir(CFG)):
+    raise WorkflowError(f"{paths.real_shapes_dir(CFG)}: --config real names no folder; give "
+                        "real='{chair: path/to/chairs, vase: path/to/vases}'")
 
 COLLECTION_NAMES = "|".join(re.escape(name) for name in COLLECTIONS) or "none"
 

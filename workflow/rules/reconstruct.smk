@@ -4,6 +4,9 @@
 # Optional per collection: batch (inputs per job, 8), budget (the fit's evaluations; null:
 # eval.reconstruct_budget), recursive. One job per batch, each writing its record last, then the
 # page job gathers them (geocode.reconstruct.collection): a rerun redoes the batches without a record.
+# The real-shape table of the paper, for folders of real meshes, one per domain:
+#   snakemake -j2 results/real_shapes --config real='{chair: coseg/chairs, vase: coseg/vases}'
+# each folder a collection real_shapes-<domain> (its page in results/reconstruct/real_shapes-<domain>/).
 
 
 rule reconstruct_batch:
@@ -48,3 +51,28 @@ rule reconstruct_page:
         mem_mb=2000,
     shell:
         "geocode reconstruct-page {params.args} > {log} 2>&1"
+
+
+def real_shapes_records():
+    """`--records <domain> <batch record>...` of each folder of --config real."""
+    return " ".join(shlex.quote(a) for name, c in REAL.items()
+                    for a in ["--records", c.domain, *collection_batches(name)])
+
+
+rule real_shapes:
+    """The real-shape table (geocode.steps.real_shapes) of every folder of --config real."""
+    input:
+        pages=lambda w: [str(paths.collection_dir(CFG, name)) for name in REAL],
+        records=lambda w: [r for name in REAL for r in collection_batches(name)],
+    output:
+        directory(str(paths.real_shapes_dir(CFG))),
+    log:
+        log_path(CFG.paths.results, "real_shapes"),
+    params:
+        records=lambda w: real_shapes_records(),
+        overrides=" ".join(shlex.quote(o) for o in OVERRIDES),
+    threads: 1
+    resources:
+        mem_mb=2000,
+    shell:
+        "geocode real-shapes -o {output} {params.overrides} {params.records} > {log} 2>&1"

@@ -32,6 +32,8 @@ from geocode.settings import NAME, Expect, Flag, optional, whole
 BATCH = 8      # inputs per job: a job's start (Blender, the network, the training shapes) is a
                # few seconds, a real mesh's reconstruction 15-30 s
 FORM = "{<name>: {domain: <domain>, inputs: <folder>}}"
+REAL_FORM = "{<domain>: <folder of real meshes>, ...}"
+REAL_PREFIX = "real_shapes-"   # the collection of --config real's folder of a domain
 
 
 class Spec(BaseModel):
@@ -72,15 +74,41 @@ def collections(value, domains: list[str], out_dir, work_dir) -> dict[str, Colle
         return {}
     if not isinstance(value, dict):
         raise UserError(f"reconstruct={value!r}", "not a mapping", f"give {FORM}")
+    for name in value:
+        if isinstance(name, str) and name.startswith(REAL_PREFIX):
+            raise UserError(f"reconstruct: {name!r}", f"names starting {REAL_PREFIX} are --config real's",
+                            "choose another name")
     return {name: collection(name, spec, domains, Path(out_dir(name)), Path(work_dir(name)))
             for name, spec in value.items()}
 
 
-def collection(name, spec, domains: list[str], out: Path, work: Path) -> Collection:
+def real_collections(value, domains: list[str], out_dir, work_dir) -> dict[str, Collection]:
+    """The collections of --config real (None: none): per domain a folder of real meshes (or a
+    collection's mapping without its domain), each the collection `real_shapes-<domain>`."""
+    if value is None:
+        return {}
+    if not isinstance(value, dict):
+        raise UserError(f"real={value!r}", "not a mapping", f"give {REAL_FORM}")
+    found = {}
+    for domain, spec in value.items():
+        if domain not in domains:
+            raise UserError(f"real.{domain}", "not a domain of this run",
+                            f"use one of {', '.join(domains) or 'none'} (the run's domains: --config domains=[...])")
+        spec = {"inputs": spec} if isinstance(spec, str) else spec
+        if not isinstance(spec, dict) or "domain" in spec:
+            raise UserError(f"real.{domain}={spec!r}", "not a folder", f"give {REAL_FORM}")
+        name = REAL_PREFIX + domain
+        found[name] = collection(name, {"domain": domain, **spec}, domains, Path(out_dir(name)),
+                                 Path(work_dir(name)), where=f"real.{domain}")
+    return found
+
+
+def collection(name, spec, domains: list[str], out: Path, work: Path, where: str | None = None) -> Collection:
+    """One collection, checked and planned; `where` names it in a mistake's line."""
     if not isinstance(name, str) or not NAME.fullmatch(name):
         raise UserError(f"reconstruct: {name!r}", "not a plain name (it names a folder)",
                         "use letters, digits, _, - and . (not a path)")
-    where = f"reconstruct.{name}"
+    where = where or f"reconstruct.{name}"
     if not isinstance(spec, dict):
         raise UserError(f"{where}={spec!r}", "not a mapping", f"give {FORM}")
     try:

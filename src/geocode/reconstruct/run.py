@@ -34,6 +34,7 @@ from scipy import ndimage
 
 from geocode.errors import UserError, one_line
 from geocode.meshio import normalise_unit_sphere
+from geocode.metrics import chamfer
 from geocode.points import network_cloud
 from geocode.reconstruct import pose as poses
 from geocode.reconstruct.fit import (
@@ -233,8 +234,9 @@ class Reconstructor:
         frame, (network, feedback) = frames[i], found[i]
         result = Reconstruction(path, geometry.kind, [], frame, geometry=geometry)
         result.network = network.chamfer
+        matches = self.training.matches(frame.samples[:SCORE_POINTS], NEAREST) if self.training else []
         if self.refine > 0:   # the fit
-            starts = answers[i] + self.nearest_starts(frame, answers[i]) + feedback
+            starts = answers[i] + self.nearest_starts(matches, answers[i]) + feedback
             result.fit = fit(self.program, self.recipe, starts, frame.samples[:TARGET_POINTS],
                              self.refine, self.tuning.cloud, seed=self.cfg.seed,
                              restarts=max(self.tuning.cloud.restarts, self.candidates),
@@ -247,8 +249,20 @@ class Reconstructor:
         result.summary.update(
             note=geometry.note, up=frame.pose.up, pose=placement(frame, best.where),
             chamfer_before=round(result.network, 6), chamfer_after=round(best.chamfer, 6),
-            **({"evaluations": result.fit.evaluations} if result.fit else {}))
+            **({"evaluations": result.fit.evaluations} if result.fit else {}),
+            **self.baselines(frame, matches))
         return result
+
+    def baselines(self, frame: Frame, matches: list) -> dict:
+        """The distances of the two answers that need no network, in the pose found: the
+        nearest training shape (`matches`, nearest first) and the program's defaults, each at
+        its best quarter-turn about the up axis."""
+        defaults = self.points({}, SCORE_POINTS)
+        out = {"chamfer_defaults": round(min(chamfer(Placement(turn=k * math.pi / 2).apply(defaults),
+                                                     frame.samples[:SCORE_POINTS]) for k in range(4)), 6)}
+        if matches:
+            out["chamfer_nearest"] = round(matches[0].chamfer, 6)
+        return out
 
     def frames(self, geometry: Geometry) -> list[Frame]:
         rng = np.random.default_rng(self.cfg.seed)
@@ -281,13 +295,12 @@ class Reconstructor:
         plain = CloudDistance(frame.samples[:TARGET_POINTS], trim=0.0)
         return min(((plain(start_placement(s).apply(self.points(s.values))), s) for s in answers), key=lambda t: t[0])
 
-    def nearest_starts(self, frame: Frame, starts: list[Start]) -> list[Start]:
-        """The nearest training shapes as starts of the fit, each with the discrete options of
-        the network's answer (`starts`, one per turn) at the nearest turn after its own values."""
-        if self.training is None:
-            return []
+    def nearest_starts(self, matches: list, starts: list[Start]) -> list[Start]:
+        """The nearest training shapes (`retrieval.Match`es) as starts of the fit, each with the
+        discrete options of the network's answer (`starts`, one per turn) at the nearest turn
+        after its own values."""
         nearest = []
-        for match in self.training.matches(frame.samples[:SCORE_POINTS], NEAREST):
+        for match in matches:
             values = yaml.safe_load(match.mesh_path.with_suffix(".yaml").read_text())
             turn = min(starts, key=lambda s: abs(math.remainder(s.turn - match.turn, 2 * math.pi)))
             options = {name: list(dict.fromkeys([float(values[name]), *o]))
@@ -301,8 +314,6 @@ class Reconstructor:
     def score(self, frame: Frame, values: dict, where: Placement) -> float:
         """The plain Chamfer distance (SCORE_POINTS each, squared, mean of both directions / 2)
         between the input and a posed shape, on the input's unit sphere."""
-        from geocode.metrics import chamfer
-
         return chamfer(where.apply(self.points(values, SCORE_POINTS)), frame.samples[:SCORE_POINTS])
 
     def mesh(self, answer: Answer) -> trimesh.Trimesh:
@@ -406,7 +417,8 @@ def folder_summary(summaries: list[dict], out_dir: Path) -> dict:
     seconds = [s["seconds"] for s in done]
     # the medians of each kind of distance (3D inputs' Chamfer, drawings' px) apart
     medians = {f"{key}_median": round(float(np.median(values)), 6)
-               for key in ("chamfer_before", "chamfer_after", "drawing_before", "drawing_after")
+               for key in ("chamfer_before", "chamfer_after", "chamfer_nearest", "chamfer_defaults",
+                           "drawing_before", "drawing_after")
                if (values := [s[key] for s in done if key in s])}
     return {"inputs": len(summaries), "reconstructed": len(done), "failed": len(summaries) - len(done),
             **medians,
