@@ -22,7 +22,8 @@ profile's training-set size: an extrapolation of a power law fitted on a few poi
 measurement.
 
 <DIR>/data, build and runs hold the work; a second call reuses the finished data, trainings
-and scores (a changed setting trains afresh). The results: curve.json, curve.csv, curve.md,
+and scores. A changed setting trains afresh, and another largest factor samples, exports and
+trains afresh (its draws number the shapes, and a shape's clouds are drawn from its number). The results: curve.json, curve.csv, curve.md,
 curve.svg (against training shapes) and curve-epochs.svg (against epochs).
 """
 
