@@ -23,8 +23,9 @@ measurement.
 
 <DIR>/data, build and runs hold the work; a second call reuses the finished data, trainings
 and scores. A changed setting trains afresh, and another largest factor samples, exports and
-trains afresh (its draws number the shapes, and a shape's clouds are drawn from its number). The results: curve.json, curve.csv, curve.md,
-curve.svg (against training shapes) and curve-epochs.svg (against epochs).
+trains afresh (its draws number the shapes, and a shape's clouds are drawn from its number).
+The results: curve.json, curve.csv, curve.md, curve.svg (against training shapes) and
+curve-epochs.svg (against epochs).
 """
 
 from __future__ import annotations

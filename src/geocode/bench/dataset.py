@@ -3,9 +3,10 @@ whole dataset takes (`geocode bench dataset`).
 
 The dataset's size is counted as the sample step writes it (`steps.dataset.split_sizes`);
 the domain's training recipes are sampled as that step draws them (pure Python, nothing
-written), and a slice of them, spread over the forced parameters, then goes through the export, sketch and points shard jobs of the
-workflow, one process, into a temporary folder. Rates exclude each job's start-up (Blender,
-the program, the renderer: seconds a job, over hundreds of shapes a shard)."""
+written), and a slice of them, spread over the forced parameters, then goes through the
+export, sketch and points shard jobs of the workflow, one process, into a temporary folder.
+Rates exclude each job's start-up (Blender, the program, the renderer: seconds a job, over
+hundreds of shapes a shard)."""
 
 from __future__ import annotations
 
