@@ -10,7 +10,7 @@ import pandas as pd
 import pytest
 
 from geocode.bench import curve
-from geocode.bench.plot import HEIGHT, Series, line_plot, x_axis, y_axis
+from geocode.bench.plot import BOTTOM, HEIGHT, TOP, Series, line_plot, nice_ticks, x_axis, y_axis
 from geocode.blender.export import load_program
 from geocode.cli import main
 from geocode.config import compose, split_variations
@@ -89,6 +89,16 @@ def test_plot_puts_each_point_where_its_values_are():
     assert found[0][1] < found[2][1] < HEIGHT
     assert y.lo <= 0.5 and y.hi >= 3.5 and x.hi == 1600
     assert 'stroke-dasharray' in svg and ">1600</text>" in svg and ">training shapes</text>" in svg
+
+
+def test_ticks_are_round_and_cover_the_values_within_the_plot():
+    assert nice_ticks(0.00067, 0.003) == [0.0005, 0.001, 0.0015, 0.002, 0.0025, 0.003]
+    assert nice_ticks(0.0, 0.06) == [0.0, 0.02, 0.04, 0.06]
+    assert nice_ticks(2.0, 2.0)[0] < 2.0 < nice_ticks(2.0, 2.0)[-1]
+    low = Series("a", [274, 1096], [0.0012, 0.0021], [0.00067, 0.0018], [0.0015, 0.0030006])
+    svg = line_plot([low], "x", "y")
+    for label_y in re.findall(r'<text x="[\d.]+" y="([\d.]+)" text-anchor="end"', svg):   # the y tick labels
+        assert TOP <= float(label_y) - 4 <= HEIGHT - BOTTOM
 
 
 @pytest.mark.parametrize("args, says", [

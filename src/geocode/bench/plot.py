@@ -36,12 +36,14 @@ class Series:
 
 @dataclass(frozen=True)
 class Axis:
-    """Data values lo .. hi onto pixels start .. end (end < start for y), log or linear."""
+    """Data values lo .. hi onto pixels start .. end (end < start for y), log or linear, with
+    labelled ticks at `ticks`."""
     lo: float
     hi: float
     start: float
     end: float
     log: bool = False
+    ticks: tuple[float, ...] = ()
 
     def __call__(self, value: float) -> float:
         f = (lambda v: math.log(v)) if self.log else (lambda v: v)
@@ -50,10 +52,12 @@ class Axis:
 
 
 def x_axis(series: Sequence[Series], log: bool) -> Axis:
-    """The x axis over every series' x, with a margin of 5% of the plot's width each side."""
+    """The x axis over every series' x, with a margin of 5% of the plot's width each side;
+    ticks at the measured points' x values and at the end of each dashed line."""
     xs = [x for s in series for x in s.x]
+    ticks = sorted({v for s in series for v in ([s.x[-1]] if s.dashed else s.x)})
     width = WIDTH - LEFT - RIGHT
-    return Axis(min(xs), max(xs), LEFT + 0.05 * width, WIDTH - RIGHT - 0.05 * width, log)
+    return Axis(min(xs), max(xs), LEFT + 0.05 * width, WIDTH - RIGHT - 0.05 * width, log, tuple(ticks))
 
 
 def y_axis(series: Sequence[Series]) -> Axis:
@@ -61,7 +65,7 @@ def y_axis(series: Sequence[Series]) -> Axis:
     the highest."""
     ticks = nice_ticks(min(v for s in series for v in (s.y if s.dashed else s.low)),
                        max(v for s in series for v in (s.y if s.dashed else s.high)))
-    return Axis(ticks[0], ticks[-1], HEIGHT - BOTTOM, TOP)
+    return Axis(ticks[0], ticks[-1], HEIGHT - BOTTOM, TOP, ticks=tuple(ticks))
 
 
 def nice_ticks(lo: float, hi: float, count: int = 5) -> list[float]:
@@ -71,8 +75,8 @@ def nice_ticks(lo: float, hi: float, count: int = 5) -> list[float]:
     raw = (hi - lo) / count
     power = 10 ** math.floor(math.log10(raw))
     step = next(m * power for m in (1, 2, 5, 10) if m * power >= raw)
-    first = math.floor(lo / step + 1e-9)
-    last = math.ceil(hi / step - 1e-9)
+    first = math.floor(lo / step + 1e-6)      # a value a rounding error past a tick takes that tick
+    last = math.ceil(hi / step - 1e-6)
     return [round(k * step, 12) for k in range(first, last + 1)]
 
 
@@ -84,27 +88,22 @@ def line_plot(series: Sequence[Series], x_label: str, y_label: str, title: str =
              f'viewBox="0 0 {WIDTH} {HEIGHT}" font-family="sans-serif" font-size="12">',
              f'<rect width="{WIDTH}" height="{HEIGHT}" fill="white"/>',
              text(WIDTH / 2, 20, title, size=14),
-             *frame(x, y, x_ticks(series), x_label, y_label)]
+             *frame(x, y, x_label, y_label)]
     for k, s in enumerate(series):
         parts += draw_series(s, x, y)
         parts += legend_entry(k, s)
     return "\n".join([*parts, "</svg>"]) + "\n"
 
 
-def x_ticks(series: Sequence[Series]) -> list[float]:
-    """Ticks at the measured points' x values and at the end of each dashed line."""
-    return sorted({v for s in series for v in ([s.x[-1]] if s.dashed else s.x)})
-
-
-def frame(x: Axis, y: Axis, x_ticks: list[float], x_label: str, y_label: str) -> list[str]:
+def frame(x: Axis, y: Axis, x_label: str, y_label: str) -> list[str]:
     """The plot area's box, grid lines, tick labels and axis labels."""
     left, right, bottom, top = LEFT, WIDTH - RIGHT, HEIGHT - BOTTOM, TOP
     out = [f'<rect x="{left}" y="{top}" width="{right - left}" height="{bottom - top}" fill="none" stroke="#444"/>']
-    for v in nice_ticks(y.lo, y.hi):
+    for v in y.ticks:
         py = y(v)
         out.append(f'<line x1="{left}" y1="{py:.1f}" x2="{right}" y2="{py:.1f}" stroke="#ddd"/>')
         out.append(text(left - 6, py + 4, f"{v:g}", anchor="end"))
-    for v in x_ticks:
+    for v in x.ticks:
         px = x(v)
         out.append(f'<line x1="{px:.1f}" y1="{bottom}" x2="{px:.1f}" y2="{bottom + 5}" stroke="#444"/>')
         out.append(text(px, bottom + 18, f"{v:g}"))
