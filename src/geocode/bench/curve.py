@@ -95,6 +95,8 @@ def bench_curve(overrides: Sequence[str], domain: str, factors: Sequence[int], e
         cfg = curve_config(domain, overrides, out, factor, e)
         point = measure_point(cfg, domain, program, recipe, out / "runs" / f"x{factor}-e{e}", gts, nearest, factor)
         points.append({"factor": factor, "epochs": e, "axes": axes, "training_shapes": sizes[factor], **point})
+        log.info("curve %s x%d, %d epochs: network %.5f, nearest %.5f", domain, factor, e,
+                 np.mean(point["network"]), np.mean(point["nearest"]))
     result = {**summarise(base, domain, recipe, points, ids, domain_epochs), "x1_redrawn": x1_redrawn}
     write_results(out, result)
     return result
@@ -298,7 +300,7 @@ def point_row(point: dict, ids: list[str]) -> dict:
     return {**{k: point[k] for k in ("factor", "epochs", "axes", "training_shapes", "train_seconds", "resumed")},
             "network": round(float(net.mean()), 6), "network_ci": [round(v, 6) for v in bootstrap_ci(net)],
             "nearest": round(float(near.mean()), 6), "nearest_ci": [round(v, 6) for v in bootstrap_ci(near)],
-            "ratio": round(float(net.mean() / near.mean()), 3), "p": float(f"{wilcoxon_p(net, near):.3g}")}
+            "ratio": float(f"{net.mean() / near.mean():.4g}"), "p": float(f"{wilcoxon_p(net, near):.3g}")}
 
 
 def power_law(n: Sequence[float], distance: Sequence[float]) -> dict:

@@ -46,7 +46,7 @@ class Axis:
     ticks: tuple[float, ...] = ()
 
     def __call__(self, value: float) -> float:
-        f = (lambda v: math.log(v)) if self.log else (lambda v: v)
+        f = math.log if self.log else float
         share = 0.5 if self.hi == self.lo else (f(value) - f(self.lo)) / (f(self.hi) - f(self.lo))
         return self.start + share * (self.end - self.start)
 
