@@ -161,9 +161,21 @@ def test_a_small_curve_end_to_end(tmp_path, capsys):
     assert len(circles((out / "curve.svg").read_text())) == 4
     assert len(circles((out / "curve-epochs.svg").read_text())) == 2
 
-    # a rerun reuses the data, the trainings and the scores
-    records = {p: p.stat().st_mtime_ns for p in (out / "runs").glob("*/" + curve.RECORD)}
+    # a rerun reuses the data, the trainings and the scores; other validation shapes are scored
+    # by the same models; another setting trains afresh
+    def stamps(name):
+        return {p: p.stat().st_mtime_ns for p in (out / "runs").glob(f"*/{name}")}
+
+    records, checkpoints = stamps(curve.RECORD), stamps("checkpoints/best.ckpt")
     assert main(args) == 0
-    assert json.loads(capsys.readouterr().out) == result
-    assert {p: p.stat().st_mtime_ns for p in (out / "runs").glob("*/" + curve.RECORD)} == records
-    assert all(p["train_seconds"] > 0 for p in result["points"])
+    assert json.loads(capsys.readouterr().out) == result and stamps(curve.RECORD) == records
+
+    assert main([*args, "-n", "2"]) == 0
+    fewer = json.loads(capsys.readouterr().out)
+    assert fewer["val_shapes"] == 2 and stamps("checkpoints/best.ckpt") == checkpoints
+    assert [p["train_seconds"] for p in fewer["points"]] == [p["train_seconds"] for p in points]
+
+    assert main([*args, "train.lr=0.001"]) == 0
+    capsys.readouterr()
+    retrained = stamps("checkpoints/best.ckpt")
+    assert len(retrained) == 2 and all(checkpoints[p] != t for p, t in retrained.items())
