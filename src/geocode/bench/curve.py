@@ -289,7 +289,8 @@ def summarise(cfg: DictConfig, domain: str, recipe, points: list[dict], ids: lis
         "crossing": crossing(n, [r["network"] for r in shapes_axis], [r["nearest"] for r in shapes_axis]),
         "power_law": laws,
         "extrapolation": {"training_shapes": paper, "profile": "paper",
-                          **{name: round(law["scale"] * paper ** law["exponent"], 6) for name, law in laws.items()},
+                          **{name: float(f"{law['scale'] * paper ** law['exponent']:.4g}")
+                             for name, law in laws.items()},
                           "note": EXTRAPOLATION.format(n=len(n))},
     }
 
@@ -373,7 +374,8 @@ def markdown(result: dict) -> str:
             "ratio | Wilcoxon p | training s |\n|---|---|---|---|---|---|---|\n")
     body = "".join(f"| {r['training_shapes']} | {r['epochs']} | {r['network']:.5f} [{r['network_ci'][0]:.5f}, "
                    f"{r['network_ci'][1]:.5f}] | {r['nearest']:.5f} [{r['nearest_ci'][0]:.5f}, "
-                   f"{r['nearest_ci'][1]:.5f}] | {r['ratio']:.2f} | {r['p']:.2g} | {r['train_seconds']:.0f} |\n"
+                   f"{r['nearest_ci'][1]:.5f}] | {r['ratio']:.2f} | {r['p']:.2g} | "
+                   f"{r['train_seconds']:.0f}{' (resumed)' * r['resumed']} |\n"
                    for r in result["points"])
     laws, ext = result["power_law"], result["extrapolation"]
     return (f"# {result['domain']}: the scaling curve ({result['profile']} profile)\n\n"
@@ -382,5 +384,5 @@ def markdown(result: dict) -> str:
             f"Against training shapes (at {epochs_text(result)}): {result['crossing']['text']}.\n\n"
             f"Power laws: network {laws['network']['scale']:.4g} n^{laws['network']['exponent']:.3f}, "
             f"nearest {laws['nearest']['scale']:.4g} n^{laws['nearest']['exponent']:.3f}. At the paper profile's "
-            f"{ext['training_shapes']} training shapes they give network {ext['network']:.5f}, nearest "
-            f"{ext['nearest']:.5f}: {ext['note']}.\n")
+            f"{ext['training_shapes']} training shapes they give network {ext['network']:.3g}, nearest "
+            f"{ext['nearest']:.3g}: {ext['note']}.\n")
