@@ -445,6 +445,27 @@ def add_benchmarks(sub, domains: list[str]) -> None:
     c.add_argument("--json", action="store_true")
     c.set_defaults(run=cmd_bench_real)
 
+    c = command(sub, "curve", "the scaling curve: a points-only network's and the nearest training shape's "
+                "distance on validation shapes against training shapes and against epochs, with a power law "
+                "extrapolated to the paper profile's size: curve.json, .csv, .md, .svg in the -o folder",
+                "geocode bench curve table -o curves/table",
+                "geocode bench curve chair --factors 1 2 4 --epochs 16 48 -n 60 -o curves/chair",
+                "geocode bench curve vase --factors 1 2 --epochs 1 -n 4 -o /tmp/curve profile=smoke")
+    c.add_argument("domain", choices=domains)
+    c.add_argument("--factors", nargs="+", metavar="F", default=[1, 2, 4, 8],
+                   type=at_most(64, "times", "each factor is a dataset and a training that much larger"),
+                   help="training-set sizes, as multiples of the profile's training variations, smallest first "
+                        "(default 1 2 4 8)")
+    c.add_argument("--epochs", nargs="+", metavar="E", default=[16, 48],
+                   type=at_most(1000, "epochs", "the paper's scale is 600"),
+                   help="the epochs axis, on the profile's training set, smallest first (default 16 48)")
+    shapes_option(c, 10000, "a mean settles within a few hundred",
+                  "validation shapes scored (default: the profile's validation split)")
+    c.add_argument("-o", "--output", required=True, type=output_folder,
+                   help="the folder of its data, trainings and results; a rerun goes on with them")
+    c.add_argument("--json", action="store_true")
+    c.set_defaults(run=cmd_bench_curve)
+
     c = command(sub, "span", "how near a program comes to real shapes at all: a long fit from its "
                 "defaults and their one-switch forms, no network", "geocode bench span chair chairs/ -o span/")
     c.add_argument("domain", choices=domains)
@@ -667,6 +688,13 @@ def cmd_bench_real(args):
     return result if args.json else real_table(result)
 
 
+def cmd_bench_curve(args):
+    from geocode.bench.curve import bench_curve, markdown
+
+    result = bench_curve(args.overrides, args.domain, args.factors, args.epochs, args.shapes, args.output)
+    return result if args.json else markdown(result)
+
+
 def cmd_bench_span(args):
     from geocode.bench.span import bench_span
 
@@ -791,12 +819,13 @@ def cmd_report(args):
 
 # Commands that start Blender: it is imported first, with stop signals held until it is up.
 BLENDER = {cmd_programs, cmd_program_show, cmd_program_build, cmd_shape, cmd_gallery, cmd_export,
-           cmd_sketch, cmd_rebuild, cmd_reconstruct, cmd_reconstruct_batch, cmd_mix, cmd_interpolate, cmd_addon_build}
+           cmd_sketch, cmd_rebuild, cmd_reconstruct, cmd_reconstruct_batch, cmd_mix, cmd_interpolate, cmd_addon_build,
+           cmd_bench_curve}
 # Commands that take Hydra overrides (key=value) after their options.
 OVERRIDES = {cmd_reconstruct, cmd_reconstruct_batch, cmd_real_shapes,
              cmd_report, cmd_sample, cmd_export, cmd_sketch, cmd_points, cmd_train, cmd_config,
              cmd_simplify, cmd_predict, cmd_rebuild, cmd_metrics, cmd_tables, cmd_timings, cmd_bench_dataset,
-             cmd_bench_fit, cmd_bench_turns, cmd_bench_real, cmd_bench_span}
+             cmd_bench_fit, cmd_bench_turns, cmd_bench_real, cmd_bench_span, cmd_bench_curve}
 
 
 if __name__ == "__main__":

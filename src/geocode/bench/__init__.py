@@ -8,6 +8,8 @@
     real      `geocode reconstruct` on real shapes, against its baselines; its pose under turns
               (`bench turns`)
     span      how near a program comes to real shapes, by a long fit without the network
+    curve     a points-only network's and the nearest training shape's distance against training
+              shapes and epochs, a power law extrapolated to the paper's size, a plot
     up        the cue weights of `--up auto`: fitted and measured on program shapes
               (`python -m geocode.bench.up fit | measure | real DIR`)
 

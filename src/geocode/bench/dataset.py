@@ -1,11 +1,12 @@
 """Throughput and disk of a domain's dataset stages at a profile's settings, and the hours its
 whole dataset takes (`geocode bench dataset`).
 
-The domain's recipes are sampled as the sample step draws them (pure Python, nothing
-written), which gives the dataset's size; a slice of its training split, spread over the
-forced parameters, then goes through the export, sketch and points shard jobs of the
-workflow, one process, into a temporary folder. Rates exclude each job's start-up (Blender,
-the program, the renderer: seconds a job, over hundreds of shapes a shard)."""
+The dataset's size is counted as the sample step writes it (`steps.dataset.split_sizes`);
+the domain's training recipes are sampled as that step draws them (pure Python, nothing
+written), and a slice of them, spread over the forced parameters, then goes through the
+export, sketch and points shard jobs of the workflow, one process, into a temporary folder.
+Rates exclude each job's start-up (Blender, the program, the renderer: seconds a job, over
+hundreds of shapes a shard)."""
 
 from __future__ import annotations
 
@@ -21,7 +22,7 @@ from geocode.blender import export, sketch
 from geocode.config import split_variations
 from geocode.points import make_clouds, points_shard
 from geocode.recipe import save_recipes
-from geocode.steps.dataset import assign_shards, sample_dataset, split_cameras, spread_subset
+from geocode.steps.dataset import assign_shards, sample_dataset, split_cameras, split_sizes, spread_subset
 from geocode.timing import Stopwatch
 
 log = logging.getLogger(__name__)
@@ -37,12 +38,12 @@ def bench_dataset(cfg: DictConfig, n: int = 24, jobs: int = 1) -> dict:
     program = export.load_program(domain)
     recipe = program.recipe()
     with Stopwatch() as sampling:
-        splits = sample_dataset(recipe, split_variations(cfg, domain), seed=cfg.seed, domain=domain)
-        splits = {s: spread_subset(splits[s], cfg.data.max_shapes[s]) for s in paths.SPLITS}
-    shapes = {s: len(frame) for s, frame in splits.items()}
+        train = sample_dataset(recipe, split_variations(cfg, domain), seed=cfg.seed, domain=domain)["train"]
+        train = spread_subset(train, cfg.data.max_shapes.train)
+    shapes = split_sizes(cfg, recipe, domain)
     views = {s: shapes[s] * len(split_cameras(cfg.data.sketch.cameras, s)) for s in paths.SPLITS}
     with tempfile.TemporaryDirectory() as tmp:
-        measured = measure_slice(cfg, program, recipe, spread_subset(splits["train"], n), Path(tmp) / "train")
+        measured = measure_slice(cfg, program, recipe, spread_subset(train, n), Path(tmp) / "train")
     rates, disk = measured["rates"], measured["mb_per_1000_shapes"]
     hours = projected_hours(shapes, views, rates, sampling.seconds, jobs, cfg.data.shards)
     result = {

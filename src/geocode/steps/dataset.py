@@ -51,6 +51,7 @@ __all__ = [
     "assign_shards",
     "shape_hashes",
     "spread_subset",
+    "split_sizes",
     "sample_step",
     "export_step",
     "sketch_step",
@@ -302,6 +303,15 @@ def spread_subset(frame: pd.DataFrame, keep: int | None) -> pd.DataFrame:
         return frame
     rows = np.unique(np.linspace(0, len(frame) - 1, keep).round().astype(int))
     return frame.iloc[rows].reset_index(drop=True)
+
+
+def split_sizes(cfg: DictConfig, recipe: Recipe, domain: str) -> dict[str, int]:
+    """The shapes of each split as the sample step writes them, without sampling: one per
+    variation of every parameter class, at most data.max_shapes."""
+    classes = sum(p.n_values for p in recipe.parameters)
+    sizes = {split: classes * int(v) for split, v in split_variations(cfg, domain).items()}
+    return {split: n if cfg.data.max_shapes.get(split) is None else min(n, cfg.data.max_shapes[split])
+            for split, n in sizes.items()}
 
 
 def sample_step(cfg: DictConfig) -> str:
