@@ -144,7 +144,7 @@ def test_a_small_curve_end_to_end(tmp_path, capsys):
             low, high = p[f"{name}_ci"]
             assert 0 < low <= p[name] <= high
         assert p["ratio"] == pytest.approx(p["network"] / p["nearest"], rel=1e-2) and 0 < p["p"] <= 1
-    assert result["val_shapes"] == 3 and result["x1_redrawn"] == 0
+    assert result["val_shapes"] == 3 and result["x1_redrawn"] == 0 and result["trainings"] == "2 of 2"
     assert result["extrapolation"]["training_shapes"] == 30 * classes     # the paper's 30 variations
     law = result["power_law"]["network"]
     assert result["extrapolation"]["network"] == pytest.approx(law["scale"] * (30 * classes) ** law["exponent"],

@@ -90,15 +90,17 @@ def bench_curve(overrides: Sequence[str], domain: str, factors: Sequence[int], e
     gts = {i: read_obj(paths.shape_file(paths.shapes_dir(val_dir), i)) for i in ids}
     domain_epochs = max_epochs(base, base.model.variant)
     nearest: dict[int, list[float]] = {}
-    points = []
-    for factor, e, axes in curve_points(factors, epochs, domain_epochs):
+    plan, points = curve_points(factors, epochs, domain_epochs), []
+    for factor, e, axes in plan:
         cfg = curve_config(domain, overrides, out, factor, e)
         point = measure_point(cfg, domain, program, recipe, out / "runs" / f"x{factor}-e{e}", gts, nearest, factor)
         points.append({"factor": factor, "epochs": e, "axes": axes, "training_shapes": sizes[factor], **point})
         log.info("curve %s x%d, %d epochs: network %.5f, nearest %.5f", domain, factor, e,
                  np.mean(point["network"]), np.mean(point["nearest"]))
-    result = {**summarise(base, domain, recipe, points, ids, domain_epochs), "x1_redrawn": x1_redrawn}
-    write_results(out, result)
+        if sum("shapes" in p["axes"] for p in points) >= 2:   # the curve so far, after each training
+            result = {**summarise(base, domain, recipe, points, ids, domain_epochs), "x1_redrawn": x1_redrawn,
+                      "trainings": f"{len(points)} of {len(plan)}"}
+            write_results(out, result)
     return result
 
 
@@ -380,7 +382,8 @@ def markdown(result: dict) -> str:
     laws, ext = result["power_law"], result["extrapolation"]
     return (f"# {result['domain']}: the scaling curve ({result['profile']} profile)\n\n"
             f"Mean Chamfer distance on {result['val_shapes']} validation shapes: the points-only network's "
-            f"answer ({result['decode']} read) and the nearest shape of its training set.\n\n{head}{body}\n"
+            f"answer ({result['decode']} read) and the nearest shape of its training set; "
+            f"{result['trainings']} trainings done.\n\n{head}{body}\n"
             f"Against training shapes (at {epochs_text(result)}): {result['crossing']['text']}.\n\n"
             f"Power laws: network {laws['network']['scale']:.4g} n^{laws['network']['exponent']:.3f}, "
             f"nearest {laws['nearest']['scale']:.4g} n^{laws['nearest']['exponent']:.3f}. At the paper profile's "
