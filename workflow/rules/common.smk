@@ -185,3 +185,9 @@ def collection_args(name):
     args = [c.domain, str(c.inputs), "-o", str(paths.collection_dir(CFG, name)), "--work", str(collection_work(name)),
             "--batch-size", str(c.batch), *(["--recursive"] if c.recursive else [])]
     return " ".join(shlex.quote(a) for a in args)
+
+
+def real_shapes_records():
+    """`--records <domain> <batch record>...` of each folder of --config real."""
+    return " ".join(shlex.quote(a) for name, c in REAL.items()
+                    for a in ["--records", c.domain, *collection_batches(name)])

@@ -53,12 +53,6 @@ rule reconstruct_page:
         "geocode reconstruct-page {params.args} > {log} 2>&1"
 
 
-def real_shapes_records():
-    """`--records <domain> <batch record>...` of each folder of --config real."""
-    return " ".join(shlex.quote(a) for name, c in REAL.items()
-                    for a in ["--records", c.domain, *collection_batches(name)])
-
-
 rule real_shapes:
     """The real-shape table (geocode.steps.real_shapes) of every folder of --config real."""
     input:

@@ -254,7 +254,7 @@ def nearest_rows(cfg: DictConfig, domain: str, gt_meshes: dict) -> list[dict]:
                  id=i, chamfer=shapes.nearest(mesh, n=cfg.eval.chamfer_points, turns=(0.0,)).chamfer,
                  stable=np.nan)
             for i, mesh in gt_meshes.items()]
-    log.info("nearest training shapes of %d test shapes in %.1f s", len(rows), time.perf_counter() - start)
+    log.info("nearest training shapes of %d shapes in %.1f s", len(rows), time.perf_counter() - start)
     return rows
 
 
