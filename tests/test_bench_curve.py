@@ -66,6 +66,10 @@ def test_crossing_on_known_numbers():
 def test_curve_points_put_factor_one_at_the_domain_epochs_on_both_axes_once():
     assert curve.curve_points([1, 2, 4], [16, 48], domain_epochs=48) == [
         (1, 48, ["shapes", "epochs"]), (2, 48, ["shapes"]), (4, 48, ["shapes"]), (1, 16, ["epochs"])]
+    # factor 1 at the domain's epochs is a point of the epochs axis too
+    assert curve.curve_points([1, 4], [20], domain_epochs=5) == [
+        (1, 5, ["shapes", "epochs"]), (4, 5, ["shapes"]), (1, 20, ["epochs"])]
+    assert curve.curve_points([2], [20], domain_epochs=5) == [(2, 5, ["shapes"]), (1, 20, ["epochs"])]
 
 
 def circles(svg: str) -> list[tuple[float, float]]:

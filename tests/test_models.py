@@ -198,6 +198,20 @@ def test_encoder_shapes():
     assert reg["size"].shape == (4, 2) and reg["count"].shape == (4, 3) and reg["width"].shape == (4, 1)
 
 
+def test_the_sketch_encoder_in_bfloat16_stays_near_float32_and_answers_in_float32():
+    torch.manual_seed(0)
+    full = VGGSketchEncoder().eval()
+    half = VGGSketchEncoder(bfloat16=True).eval()
+    half.load_state_dict(full.state_dict())
+    x = torch.rand(3, 1, 224, 224)
+    a, b = full(x), half(x)
+    assert b.dtype == torch.float32 and not torch.equal(a, b)          # it did run in bfloat16
+    assert (a - b).norm() / a.norm() < 0.05
+    assert all(p.dtype == torch.float32 for p in half.parameters())   # the weights stay float32
+    model = GeoCodeModule(HEADS, sketch_bfloat16=True)
+    assert model.hparams.sketch_bfloat16 and model.branches[0].sketch.bfloat16
+
+
 @pytest.mark.parametrize("regression", [False, True])
 def test_decoders_stacked_in_eval_equal_the_heads_one_by_one(regression):
     torch.manual_seed(0)
@@ -289,6 +303,24 @@ def test_variants_train_step_and_predict(variant):
     assert pred["sketch"].shape == (1, 3) and (pred["sketch"][0] < torch.tensor([5, 3, 4])).all()
     if variant != "huang":
         assert model.predict_classes(points=batch["points"][:1])["points"].shape == (1, 3)
+
+
+def test_the_sketch_loss_reads_the_sketches_own_labels():
+    """A batch may pair each cloud with a sketch of another shape ("sketch_labels")."""
+    torch.manual_seed(0)
+    model = GeoCodeModule(HEADS).eval()
+    logged = {}
+    model.log = lambda name, value, **k: logged.__setitem__(name, float(value))
+    model.log_dict = lambda *a, **k: None
+    labels = torch.tensor([[4, 0, 1], [0, 2, 3]])
+    batch = {"points": torch.randn(2, 60, 3), "sketch": torch.rand(2, 1, 224, 224), "labels": labels}
+    model._step(batch, "train")
+    same = dict(logged)
+    model._step({**batch, "sketch_labels": labels.flip(0)}, "train")
+    assert logged["train/loss_points"] == same["train/loss_points"]
+    assert logged["train/loss_sketch"] != same["train/loss_sketch"]
+    model._step({**batch, "sketch_labels": labels}, "train")
+    assert logged["train/loss_sketch"] == same["train/loss_sketch"]
 
 
 def test_huang_reads_sketches_only_with_two_networks():

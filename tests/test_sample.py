@@ -219,6 +219,22 @@ def test_domain_variations_replace_a_domains_split_counts():
     assert split_variations(compose(["++data.domain_variations.chair.train=3"]), "chair")["train"] == 3
 
 
+def test_cloud_factor_grows_the_training_split_and_only_its_first_draws_are_sketched():
+    from geocode.config import compose, max_epochs, sketch_variations, split_variations
+    from geocode.steps.dataset import first_draws
+
+    cfg = compose(["domain=vase", "data.variations={train: 2, val: 1, test: 1}", "data.domain_variations=null",
+                   "train.domain_epochs=null",
+                   "data.cloud_factor=4", "train.max_epochs=4", "train.variant_epochs={huang: 0.5, separate: 0.5}"])
+    assert split_variations(cfg, "vase") == {"train": 8, "val": 1, "test": 1}
+    assert split_variations(cfg, "vase", clouds=False)["train"] == 2 and sketch_variations(cfg, "vase") == 2
+    assert sketch_variations(compose(["data.cloud_factor=1"]), "vase") is None
+    # a sketch-only variant's epoch is a pass over the sketched shapes: cloud_factor times the epochs
+    assert max_epochs(cfg, "joint") == 4 and max_epochs(cfg, "separate") == 2 and max_epochs(cfg, "huang") == 8
+    frame = pd.DataFrame({"forced": ["a", "a", "b", "a", "b", "b"], "forced_class": [0, 0, 1, 0, 1, 1]})
+    assert first_draws(frame, 2).tolist() == [0, 1, 2, 4] and first_draws(frame, None).tolist() == list(range(6))
+
+
 def test_domain_epochs_replace_a_domains_max_epochs():
     """train.domain_epochs gives one domain more epochs; a variant's share applies to them."""
     from geocode.config import compose, max_epochs

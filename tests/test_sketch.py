@@ -142,6 +142,14 @@ def test_sketch_shard_skips_finished_work_and_writes_done_last(tmp_path):
             assert p.stat().st_mtime_ns == stamps[p.name]               # skipped
 
 
+def test_sketch_shard_draws_only_the_shapes_asked_for(tmp_path):
+    ids = ["train-000000", "train-000001"]
+    _split(tmp_path, ids)
+    done = sketch.sketch_shard(tmp_path, 0, CAMS[:1], only={ids[1]})
+    assert [p.name for p in (tmp_path / "sketches").glob("*.png")] == [f"{ids[1]}_{CAMS[0].name}.png"]
+    assert done.read_text().split() == [ids[1]]
+
+
 def test_sketch_shard_without_a_mesh_leaves_no_done_file(tmp_path):
     _split(tmp_path, ["train-000000"])
     meshio.write_text(tmp_path / "done" / "export-0.txt", "train-000000\ntrain-000009\n")

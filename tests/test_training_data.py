@@ -118,6 +118,26 @@ def test_load_split_labels_and_arrays(dataset):
     np.testing.assert_array_equal(split.labels[:, 0], np.rint((frame["height"] - 0.5) / 0.5))
 
 
+def test_a_split_with_fewer_sketches_than_clouds(dataset):
+    """The first draws of each class have sketches; the others only clouds. A training item
+    pairs each cloud with a sketch (and its labels), and a sketch-only model's epoch is the
+    sketched shapes."""
+    root, recipe = dataset
+    for png in (root / "train" / "sketches").glob("*.png"):
+        if int(png.name[6:12]) >= 3:
+            png.unlink()                                     # only shapes 0-2 are ever read
+    split = load_split(root / "train", recipe, CAMERAS, sketched=3)   # one (forced, class): rows 0-2
+    assert split.fps.shape[0] == 10 and split.sketches["az35"].shape[0] == 3
+    assert split.sketch_rows.tolist() == [0, 1, 2]
+    both = ShapeItems(split, N_PICK, CAMERAS, train=True)
+    assert len(both) == 10
+    item = both[4]
+    assert torch.equal(item["labels"], torch.from_numpy(split.labels[4]))
+    assert torch.equal(item["sketch_labels"], torch.from_numpy(split.labels[1]))       # 4 mod 3
+    sketches = ShapeItems(split, N_PICK, CAMERAS, train=True, modalities=["sketch"])
+    assert len(sketches) == 3 and torch.equal(sketches[2]["labels"], torch.from_numpy(split.labels[2]))
+
+
 def test_items_train_draws_fresh_eval_fixed(dataset):
     root, recipe = dataset
     split = load_split(root / "val", recipe, CAMERAS[:1])

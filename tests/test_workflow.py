@@ -23,6 +23,8 @@ import pytest
 import trimesh
 import yaml
 
+from geocode.steps.dataset import first_draws
+
 ROOT = Path(__file__).resolve().parents[1]
 SMOKE = ["--config", "profile=smoke"]
 
@@ -83,14 +85,17 @@ def file_hashes(folder: Path) -> dict[str, str]:
 
 def test_smoke_run_makes_the_dataset(smoke_run):
     split = smoke_run / "data" / "smoke" / "vase" / "train"
-    ids = pd.read_parquet(split / "recipes.parquet")["id"].tolist()
-    assert len(ids) == 12
+    frame = pd.read_parquet(split / "recipes.parquet")
+    ids = frame["id"].tolist()
+    drawn = set(frame["id"].iloc[first_draws(frame, 1)])     # data.cloud_factor 2: the first draw of each class
+    assert len(ids) == 12 and 0 < len(drawn) < len(ids)
     for i in ids:
         for suffix in (".obj", ".yaml", ".labels.yaml", ".parts.npy"):
             assert (split / "shapes" / f"{i}{suffix}").exists()
         clouds = np.load(split / "points" / f"{i}.npz")
         assert clouds["fps"].shape == (300, 3) and clouds["random"].shape == (300, 3)
-        assert sorted(p.stem.split("_")[-1] for p in (split / "sketches").glob(f"{i}_*.png")) == ["az35", "az55"]
+        cameras = ["az35", "az55"] if i in drawn else []
+        assert sorted(p.stem.split("_")[-1] for p in (split / "sketches").glob(f"{i}_*.png")) == cameras
     test = smoke_run / "data" / "smoke" / "vase" / "test"      # the novel camera is drawn for the test split only
     test_id = pd.read_parquet(test / "recipes.parquet")["id"].iloc[0]
     assert len(list((test / "sketches").glob(f"{test_id}_*.png"))) == 3

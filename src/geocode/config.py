@@ -11,6 +11,7 @@ from omegaconf import DictConfig, ListConfig, OmegaConf
 
 from geocode.paths import programs_dir, repo_root
 from geocode.settings import MAPPINGS, NAME, ConfigError, Settings, check, documented_keys  # noqa: F401 (NAME re-exported)
+from geocode.variants import variant_modalities
 
 KEYS_HINT = "see `geocode config --keys`"
 
@@ -201,10 +202,18 @@ def variants(cfg: DictConfig, domain: str) -> list[str]:
     return list(dict.fromkeys([*cfg.eval.variants, *ablations]))
 
 
-def split_variations(cfg: DictConfig, domain: str) -> dict[str, int]:
+def split_variations(cfg: DictConfig, domain: str, clouds: bool = True) -> dict[str, int]:
     """Shapes per parameter class of each split: data.variations, with the domain's entries
-    in data.domain_variations in their place (null: none)."""
-    return {**cfg.data.variations, **(cfg.data.domain_variations or {}).get(domain, {})}
+    in data.domain_variations in their place (null: none); the training split's times
+    data.cloud_factor unless `clouds` is false (the shapes drawn as sketches, `sketch_variations`)."""
+    counts = {**cfg.data.variations, **(cfg.data.domain_variations or {}).get(domain, {})}
+    return {**counts, "train": counts["train"] * (int(cfg.data.cloud_factor) if clouds else 1)}
+
+
+def sketch_variations(cfg: DictConfig, domain: str) -> int | None:
+    """The first draws of each parameter class of the training split that are drawn as sketches:
+    None where all of them are (data.cloud_factor 1)."""
+    return None if int(cfg.data.cloud_factor) == 1 else split_variations(cfg, domain, clouds=False)["train"]
 
 
 def sketch_fit_budget(cfg: DictConfig, domain: str) -> int:
@@ -225,4 +234,6 @@ def max_epochs(cfg: DictConfig, variant: str, domain: str | None = None) -> int:
     model on a smaller budget). domain: cfg.domain.name unless given."""
     epochs = (cfg.train.domain_epochs or {}).get(cfg.domain.name if domain is None else domain, cfg.train.max_epochs)
     share = float(cfg.train.variant_epochs.get(variant, 1.0))
+    if "points" not in variant_modalities(variant):  # its epoch: the sketched shapes, cloud_factor times fewer
+        share *= int(cfg.data.cloud_factor)
     return max(1, round(int(epochs) * share))

@@ -165,6 +165,8 @@ class Data(Group):
     variations: Splits
     domain_variations: DomainSplits = key("per-domain replacements of data.variations, {<domain>: {<split>: N}}: "
                                           "more shapes for the domains that need them")
+    cloud_factor: whole(1) = key("training shapes per class as a multiple of variations.train; only the first "
+                                 "variations.train of each class are drawn as sketches")
     max_shapes: MaxShapes
     shards: whole(1) = key("shards per split: the export, sketch and points jobs of each split")
     points: Points
@@ -184,6 +186,7 @@ class Model(Group):
     hidden: each(whole(1)) = key("widths of each decoder's hidden layers")
     dropout: number(0, 1) = key("decoder dropout probability")
     embedding_norm: Flag = key("a BatchNorm per modality on the encoders' embeddings")
+    sketch_bfloat16: Flag = key("the sketch encoder's convolutions autocast to bfloat16")
     fast: Flag = key("the fast exact EdgeConv (false: the reference implementation)")
 
 

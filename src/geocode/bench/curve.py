@@ -55,6 +55,7 @@ from geocode.seeds import generator
 from geocode.steps.dataset import (
     SamplingError,
     assign_shards,
+    first_draws,
     sample_dataset,
     save_split_recipes,
     split_sizes,
@@ -142,9 +143,11 @@ def data_root(out: Path, factor: int | str) -> Path:
 
 def curve_points(factors: Sequence[int], epochs: Sequence[int], domain_epochs: int) -> list[tuple[int, int, list[str]]]:
     """(factor, epochs, the axes it is on) of every training: each factor at the domain's
-    epochs ("shapes"), factor 1 at each of `epochs` ("epochs"); a training on both comes once."""
+    epochs ("shapes"), factor 1 at each of `epochs` and at the domain's ("epochs"); a training
+    on both comes once."""
     plan: dict[tuple[int, int], list[str]] = {}
-    for point, axis in [*(((f, domain_epochs), "shapes") for f in factors), *(((1, e), "epochs") for e in epochs)]:
+    on_epochs = sorted({*epochs, *([domain_epochs] if 1 in factors else [])})
+    for point, axis in [*(((f, domain_epochs), "shapes") for f in factors), *(((1, e), "epochs") for e in on_epochs)]:
         plan.setdefault(point, []).append(axis)
     return [(f, e, axes) for (f, e), axes in plan.items()]
 
@@ -156,7 +159,7 @@ def make_data(cfg: DictConfig, domain: str, program, recipe, factors: Sequence[i
     """The training split at the largest factor and the validation split, exported with their
     clouds under data/all, and each factor's nested training split under data/x<factor>:
     ({factor: its training shapes}, how many shapes of factor 1 the profile's sampling lacks)."""
-    per_class = split_variations(cfg, domain)
+    per_class = split_variations(cfg, domain, clouds=False)
     try:
         splits = sample_dataset(recipe, {**per_class, "train": per_class["train"] * max(factors)},
                                 seed=cfg.seed, domain=domain)
@@ -191,7 +194,7 @@ def export_split(cfg: DictConfig, split_dir: Path, frame: pd.DataFrame, key: str
 
 def nested_subset(frame: pd.DataFrame, per_class: int) -> pd.DataFrame:
     """The first `per_class` draws of each (forced parameter, class), in the frame's order."""
-    return frame[frame.groupby(["forced", "forced_class"]).cumcount() < per_class].reset_index(drop=True)
+    return frame.iloc[first_draws(frame, per_class)].reset_index(drop=True)
 
 
 def redrawn(subset: pd.DataFrame, default: pd.DataFrame) -> int:
@@ -338,10 +341,13 @@ def write_results(out: Path, result: dict) -> None:
                            "network_low": r["network_ci"][0], "network_high": r["network_ci"][1],
                            "nearest_low": r["nearest_ci"][0], "nearest_high": r["nearest_ci"][1]}
                           for r in result["points"]])
+    texts = {"curve.json": json.dumps(result, indent=1) + "\n", "curve.csv": table.to_csv(index=False),
+             "curve.md": markdown(result)}
+    for name, axis in (("curve.svg", "shapes"), ("curve-epochs.svg", "epochs")):
+        if any(axis in r["axes"] for r in result["points"]):      # the epochs axis comes last
+            texts[name] = plot(result, axis)
     with Outputs() as files:
-        for name, text in (("curve.json", json.dumps(result, indent=1) + "\n"),
-                           ("curve.csv", table.to_csv(index=False)), ("curve.md", markdown(result)),
-                           ("curve.svg", plot(result, "shapes")), ("curve-epochs.svg", plot(result, "epochs"))):
+        for name, text in texts.items():
             Path(files.reserve(out / name)).write_text(text)
 
 

@@ -41,7 +41,8 @@ def bench_dataset(cfg: DictConfig, n: int = 24, jobs: int = 1) -> dict:
         train = sample_dataset(recipe, split_variations(cfg, domain), seed=cfg.seed, domain=domain)["train"]
         train = spread_subset(train, cfg.data.max_shapes.train)
     shapes = split_sizes(cfg, recipe, domain)
-    views = {s: shapes[s] * len(split_cameras(cfg.data.sketch.cameras, s)) for s in paths.SPLITS}
+    drawn = split_sizes(cfg, recipe, domain, clouds=False)
+    views = {s: drawn[s] * len(split_cameras(cfg.data.sketch.cameras, s)) for s in paths.SPLITS}
     with tempfile.TemporaryDirectory() as tmp:
         measured = measure_slice(cfg, program, recipe, spread_subset(train, n), Path(tmp) / "train")
     rates, disk = measured["rates"], measured["mb_per_1000_shapes"]

@@ -40,7 +40,8 @@ class GeoCodeModule(Network, pl.LightningModule):
     loss = sum_params CE(decoder(DGCNN(points))) + sum_params CE(decoder(VGG(sketch)))
     (MSE for regressed parameters). Adam + StepLR, as in the paper.
 
-    Batches: {"points": (B, N, 3) float, "sketch": (B, 1, 224, 224) float, "labels": (B, P) int64}.
+    Batches: {"points": (B, N, 3) float, "labels": (B, P) int64, "sketch": (B, 1, 224, 224) float,
+    "sketch_labels": (B, P) int64 (the sketches' own shapes; "labels" where not given)}.
     """
 
     def __init__(
@@ -56,6 +57,7 @@ class GeoCodeModule(Network, pl.LightningModule):
         dropout: float = 0.5,
         fast: bool = True,
         embedding_norm: bool = False,
+        sketch_bfloat16: bool = False,
         lr: float = 1e-2,
         step_size: int = 20,
         gamma: float = 0.9,
@@ -72,12 +74,12 @@ class GeoCodeModule(Network, pl.LightningModule):
             {"heads": heads, "variant": variant, "k": k, "edge_channels": list(edge_channels),
              "point_channels": point_channels, "sketch_channels": list(sketch_channels),
              "sketch_pool": sketch_pool, "hidden": list(hidden), "dropout": dropout, "fast": fast,
-             "embedding_norm": embedding_norm,
+             "embedding_norm": embedding_norm, "sketch_bfloat16": sketch_bfloat16,
              "lr": lr, "step_size": step_size, "gamma": gamma, "schedule": schedule,
              "warmup_epochs": warmup_epochs, "modalities": modalities}
         )
         self._build(heads, variant, k, edge_channels, point_channels, sketch_channels, sketch_pool,
-                    hidden, dropout, fast, embedding_norm, modalities)
+                    hidden, dropout, fast, embedding_norm, sketch_bfloat16, modalities)
 
     # ------------------------------------------------------------ training
 
@@ -85,13 +87,13 @@ class GeoCodeModule(Network, pl.LightningModule):
         return sum(b.decoder(modality).loss(outputs, labels, self.columns) for b in self.branches)
 
     def _step(self, batch: Mapping[str, torch.Tensor], stage: str) -> torch.Tensor:
-        labels = batch["labels"]  # (B, P)
         inputs = {m: batch.get(m) if m in self.modalities else None for m in MODALITIES}
         outputs = self(inputs["points"], inputs["sketch"])
-        size = labels.shape[0]
+        size = batch["labels"].shape[0]
         total = 0.0
         accs = []
         for modality, out in outputs.items():
+            labels = batch.get(f"{modality}_labels", batch["labels"])  # (B, P)
             loss = self._loss(out, labels, modality)
             total = total + loss
             correct = (self.classes(out, modality) == labels).float()  # (B, P)

@@ -15,21 +15,7 @@ from torch import nn
 from geocode.models.dgcnn import DGCNN, DGCNNReference
 from geocode.models.heads import Decoders
 from geocode.models.vgg import VGG_CHANNELS, VGGSketchEncoder
-
-VARIANTS = ("joint", "separate", "regression", "huang")
-MODALITIES = ("points", "sketch")
-# The inputs a variant can take: Huang et al. 2017 read sketches only.
-VARIANT_MODALITIES = {"huang": ("sketch",)}
-
-
-def variant_modalities(variant: str, modalities: Sequence[str] = MODALITIES) -> list[str]:
-    """The asked-for modalities that the variant takes, in MODALITIES order."""
-    allowed = VARIANT_MODALITIES.get(variant, MODALITIES)
-    kept = [m for m in MODALITIES if m in modalities and m in allowed]
-    if not kept:
-        raise ValueError(f"model.variant={variant} takes {', '.join(allowed)}: "
-                         f"modalities={list(modalities)} leaves it no input")
-    return kept
+from geocode.variants import MODALITIES, VARIANT_MODALITIES, VARIANTS, variant_modalities  # noqa: F401 (re-exported)
 
 
 class Branch(nn.Module):
@@ -53,13 +39,15 @@ class Branch(nn.Module):
         dropout: float,
         fast: bool,
         embedding_norm: bool = False,
+        sketch_bfloat16: bool = False,
     ) -> None:
         super().__init__()
         dgcnn = DGCNN if fast else DGCNNReference
         if "points" in modalities:
             self.points = dgcnn(k=k, channels=edge_channels, out_channels=point_channels)
         if "sketch" in modalities:
-            self.sketch = VGGSketchEncoder(sketch_channels, out_dim=2 * point_channels, pool_size=sketch_pool)
+            self.sketch = VGGSketchEncoder(sketch_channels, out_dim=2 * point_channels, pool_size=sketch_pool,
+                                           bfloat16=sketch_bfloat16)
         # A BatchNorm per modality on its embedding: shared decoders then read inputs of one
         # scale (a DGCNN pools rectified features; the sketch encoder ends with a linear layer).
         self.norms = nn.ModuleDict({m: nn.BatchNorm1d(2 * point_channels) for m in modalities}
@@ -114,7 +102,7 @@ class Hyper(dict):
 # from before a key existed loads with its default.
 NETWORK_DEFAULTS = {"variant": "joint", "k": 20, "edge_channels": (16, 16, 32, 64), "point_channels": 64,
                     "sketch_channels": VGG_CHANNELS, "sketch_pool": 7, "hidden": (128, 64), "dropout": 0.5,
-                    "fast": True, "embedding_norm": False, "modalities": MODALITIES}
+                    "fast": True, "embedding_norm": False, "sketch_bfloat16": False, "modalities": MODALITIES}
 
 
 class Network:
@@ -122,13 +110,13 @@ class Network:
     and the training module (a mixin before nn.Module in the class bases)."""
 
     def _build(self, heads, variant, k, edge_channels, point_channels, sketch_channels, sketch_pool,
-               hidden, dropout, fast, embedding_norm, modalities) -> None:
+               hidden, dropout, fast, embedding_norm, sketch_bfloat16, modalities) -> None:
         self.modalities = modalities
         self.parameter_names = [h["name"] for h in heads]
         self.columns = {name: j for j, name in enumerate(self.parameter_names)}
         self.branches = nn.ModuleList(
             Branch(group, modalities, sep, reg, k, edge_channels, point_channels, sketch_channels, sketch_pool,
-                   hidden, dropout, fast, embedding_norm)
+                   hidden, dropout, fast, embedding_norm, sketch_bfloat16)
             for group, sep, reg in branch_layout(variant, heads)
         )
 

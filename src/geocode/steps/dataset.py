@@ -36,7 +36,7 @@ import pandas as pd
 from omegaconf import DictConfig
 
 from geocode import paths
-from geocode.config import split_variations
+from geocode.config import sketch_variations, split_variations
 from geocode.meshio import write_text
 from geocode.recipe import Recipe, load_recipe, load_recipes, save_recipes
 from geocode.seeds import key_word
@@ -52,6 +52,7 @@ __all__ = [
     "shape_hashes",
     "spread_subset",
     "split_sizes",
+    "first_draws",
     "sample_step",
     "export_step",
     "sketch_step",
@@ -305,11 +306,21 @@ def spread_subset(frame: pd.DataFrame, keep: int | None) -> pd.DataFrame:
     return frame.iloc[rows].reset_index(drop=True)
 
 
-def split_sizes(cfg: DictConfig, recipe: Recipe, domain: str) -> dict[str, int]:
+def first_draws(frame: pd.DataFrame, per_class: int | None) -> np.ndarray:
+    """The rows (positions) of the first `per_class` draws of each (forced parameter, class), in
+    the frame's order: the training shapes drawn as sketches (`config.sketch_variations`); all
+    rows where None."""
+    if per_class is None:
+        return np.arange(len(frame))
+    return np.flatnonzero(frame.groupby(["forced", "forced_class"]).cumcount().to_numpy() < per_class)
+
+
+def split_sizes(cfg: DictConfig, recipe: Recipe, domain: str, clouds: bool = True) -> dict[str, int]:
     """The shapes of each split as the sample step writes them, without sampling: one per
-    variation of every parameter class, at most data.max_shapes."""
+    variation of every parameter class, at most data.max_shapes (`clouds` false: the training
+    shapes drawn as sketches)."""
     classes = sum(p.n_values for p in recipe.parameters)
-    sizes = {split: classes * int(v) for split, v in split_variations(cfg, domain).items()}
+    sizes = {split: classes * int(v) for split, v in split_variations(cfg, domain, clouds).items()}
     return {split: n if cfg.data.max_shapes.get(split) is None else min(n, cfg.data.max_shapes[split])
             for split, n in sizes.items()}
 
@@ -359,9 +370,19 @@ def sketch_step(cfg: DictConfig, split: str, shard: int) -> None:
     from geocode.blender.sketch import sketch_shard
 
     s = cfg.data.sketch
-    sketch_shard(paths.split_dir(cfg, cfg.domain.name, paths.check_split(cfg, split)), shard,
-                 cameras=split_cameras(s.cameras, split), size=s.size, elevation=s.elevation,
-                 seed=cfg.seed, jitter=s.jitter)
+    split_dir = paths.split_dir(cfg, cfg.domain.name, paths.check_split(cfg, split))
+    sketch_shard(split_dir, shard, cameras=split_cameras(s.cameras, split), size=s.size, elevation=s.elevation,
+                 seed=cfg.seed, jitter=s.jitter, only=sketched_ids(cfg, split_dir, split))
+
+
+def sketched_ids(cfg: DictConfig, split_dir: Path, split: str) -> set[str] | None:
+    """The shapes of a split drawn as sketches: the training split's first draws of each class
+    (`config.sketch_variations`); None (all) for the other splits."""
+    per_class = sketch_variations(cfg, cfg.domain.name) if split == "train" else None
+    if per_class is None:
+        return None
+    frame = load_recipes(paths.recipes_file(split_dir))
+    return set(frame["id"].iloc[first_draws(frame, per_class)])
 
 
 def split_cameras(cameras, split: str) -> list:

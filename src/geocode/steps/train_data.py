@@ -65,21 +65,25 @@ def _load_npz(path: Path) -> tuple[np.ndarray, np.ndarray]:
 @dataclass
 class SplitData:
     """One split, loaded once. Shapes: fps (n, F, 3), random (n, R, 3) float32,
-    sketches {camera: (n, H, W) uint8}, labels (n, P) int64."""
+    sketches {camera: (s, H, W) uint8} of the shapes at `sketch_rows` (s,), labels (n, P) int64."""
 
     ids: list[str]
     fps: np.ndarray
     random: np.ndarray
     sketches: dict[str, np.ndarray]
     labels: np.ndarray
+    sketch_rows: np.ndarray
 
     def __len__(self) -> int:
         return len(self.ids)
 
 
-def load_split(split_dir: str | Path, recipe, cameras: Sequence[str]) -> SplitData:
-    """Read a split folder: labels from recipes.parquet, clouds and sketches in parallel."""
+def load_split(split_dir: str | Path, recipe, cameras: Sequence[str], sketched: int | None = None) -> SplitData:
+    """Read a split folder: labels from recipes.parquet, clouds and sketches in parallel; the
+    sketches of the first `sketched` draws of each parameter class only, where given
+    (`steps.dataset.first_draws`)."""
     from geocode.recipe import load_recipes
+    from geocode.steps.dataset import first_draws
 
     split_dir = Path(split_dir)
     frame = load_recipes(paths.recipes_file(split_dir))
@@ -87,15 +91,16 @@ def load_split(split_dir: str | Path, recipe, cameras: Sequence[str]) -> SplitDa
     if not ids:
         raise UserError(paths.recipes_file(split_dir), "no shapes in this split", "sample more")
     labels = recipe.class_matrix(frame).astype(np.int64)  # (n, P)
+    rows = first_draws(frame, sketched)
     with ThreadPoolExecutor(IO_THREADS) as pool:
         clouds = list(pool.map(_load_npz, [paths.cloud_file(split_dir, i) for i in ids]))
         sketches = {
-            cam: np.stack(list(pool.map(load_sketch_u8, [paths.sketch_file(split_dir, i, cam) for i in ids])))
+            cam: np.stack(list(pool.map(load_sketch_u8, [paths.sketch_file(split_dir, ids[r], cam) for r in rows])))
             for cam in cameras
         }
     fps = np.stack([c[0] for c in clouds])  # (n, F, 3)
     rand = np.stack([c[1] for c in clouds])  # (n, R, 3)
-    return SplitData(ids, fps, rand, sketches, labels)
+    return SplitData(ids, fps, rand, sketches, labels, rows)
 
 
 # ---------------------------------------------------------------- items
@@ -148,8 +153,12 @@ class PointAugment:
 
 
 class ShapeItems(Dataset):
-    """Items of one split: {"points": (F + n_random, 3), "sketch": (1, H, W), "labels": (P,)},
-    with only the `modalities` asked for.
+    """Items of one split: {"points": (F + n_random, 3), "labels": (P,), "sketch": (1, H, W),
+    "sketch_labels": (P,)}, with only the `modalities` asked for.
+
+    An item per cloud, or per sketched shape where the items carry no clouds. Where the split
+    draws fewer shapes as sketches than it has clouds (`SplitData.sketch_rows`), item i's sketch
+    is of sketched shape i mod s: each sketch comes n / s times an epoch, with its own labels.
 
     Training: a fresh draw of n_random random points and a random camera of `cameras` per
     item, plus sketch and cloud augmentation, from torch's generator (which `train` seeds
@@ -180,7 +189,7 @@ class ShapeItems(Dataset):
             self.picks = np.stack([eval_pick(total, n_random, seed, i) for i in data.ids])  # (n, n_random)
 
     def __len__(self) -> int:
-        return len(self.data)
+        return len(self.data) if "points" in self.modalities else len(self.data.sketch_rows)
 
     def __getitem__(self, i: int) -> dict[str, torch.Tensor]:
         d = self.data
@@ -189,15 +198,19 @@ class ShapeItems(Dataset):
             cam = self.cameras[int(torch.randint(len(self.cameras), ()))]
         else:
             pick, cam = self.picks[i], self.cameras[0]
-        item = {"labels": torch.from_numpy(d.labels[i])}
+        item = {}
         if "points" in self.modalities:
             points = np.concatenate([d.fps[i], d.random[i][pick]])  # (F + n_random, 3)
             if self.point_augment is not None:
                 points = self.point_augment(points, np.random.default_rng(int(torch.randint(2**62, ()))))
             item["points"] = torch.from_numpy(points)
+            item["labels"] = torch.from_numpy(d.labels[i])
         if "sketch" in self.modalities:
-            sketch = torch.from_numpy(d.sketches[cam][i]).float().div_(255.0)[None]  # (1, H, W)
+            s = i % len(d.sketch_rows)
+            sketch = torch.from_numpy(d.sketches[cam][s]).float().div_(255.0)[None]  # (1, H, W)
             item["sketch"] = self.augment(sketch) if self.augment is not None else sketch
+            item["sketch_labels"] = torch.from_numpy(d.labels[d.sketch_rows[s]])
+            item.setdefault("labels", item["sketch_labels"])
         return item
 
 
@@ -209,8 +222,9 @@ class GeoCodeDataModule(pl.LightningDataModule):
 
     `cameras`: the training cameras (a training item picks one at random); validation uses
     `eval_camera` (default: the first training camera). `modalities`: the inputs the items
-    carry (a model trained on points alone never reads a sketch). `seed` (the config's)
-    fixes the training order of every epoch and the validation draw of random points.
+    carry (a model trained on points alone never reads a sketch). `sketched`: the first draws of
+    each parameter class of the training split that have sketches (None: all). `seed` (the
+    config's) fixes the training order of every epoch and the validation draw of random points.
     """
 
     def __init__(
@@ -226,6 +240,7 @@ class GeoCodeDataModule(pl.LightningDataModule):
         point_augment: PointAugment | None = None,
         modalities: Sequence[str] = MODALITIES,
         seed: int = 0,
+        sketched: int | None = None,
     ) -> None:
         super().__init__()
         unknown = set(modalities) - set(MODALITIES)
@@ -242,6 +257,7 @@ class GeoCodeDataModule(pl.LightningDataModule):
         self.augment = augment if augment is not None else SketchAugment()
         self.point_augment = point_augment
         self.modalities = list(modalities)
+        self.sketched = sketched
         self.splits: dict[str, SplitData] = {}
 
     def split(self, name: str) -> SplitData:
@@ -249,7 +265,8 @@ class GeoCodeDataModule(pl.LightningDataModule):
         if name not in self.splits:
             cams = self.cameras if name == "train" else [self.eval_camera]
             cams = cams if "sketch" in self.modalities else []
-            self.splits[name] = load_split(paths.split_of(self.root, name), self.recipe, cams)
+            self.splits[name] = load_split(paths.split_of(self.root, name), self.recipe, cams,
+                                           self.sketched if name == "train" else None)
         return self.splits[name]
 
     def setup(self, stage: str | None = None) -> None:
