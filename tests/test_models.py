@@ -437,6 +437,9 @@ def test_bench_epoch_counts_the_steps_of_an_epoch():
     first = bench_epoch(clouds=5, sketches=10, batch=2, device="cpu", n_points=64, n_heads=3, max_steps=1)
     assert first["steps"] == 3 and first["timed_steps"] == 1 and first["clouds"] == 6     # the epoch's, not the timed
     assert first["epoch_s"] == pytest.approx(3 * first["step_s"])
+    half = bench_epoch(clouds=5, sketches=10, batch=2, device="cpu", n_points=64, n_heads=3, max_steps=1,
+                       sketch_bfloat16=True)
+    assert half["sketch_bfloat16"] and not first["sketch_bfloat16"]
 
 
 def test_embedding_norm_gives_the_shared_decoders_each_modality_standardised():

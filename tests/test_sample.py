@@ -220,19 +220,21 @@ def test_domain_variations_replace_a_domains_split_counts():
 
 
 def test_cloud_factor_grows_the_training_split_and_only_its_first_draws_are_sketched():
-    from geocode.config import compose, max_epochs, sketch_variations, split_variations
+    from geocode.config import compose, max_epochs, sketched_draws, split_variations
     from geocode.steps.dataset import first_draws
 
     cfg = compose(["domain=vase", "data.variations={train: 2, val: 1, test: 1}", "data.domain_variations=null",
                    "train.domain_epochs=null",
                    "data.cloud_factor=4", "train.max_epochs=4", "train.variant_epochs={huang: 0.5, separate: 0.5}"])
     assert split_variations(cfg, "vase") == {"train": 8, "val": 1, "test": 1}
-    assert split_variations(cfg, "vase", clouds=False)["train"] == 2 and sketch_variations(cfg, "vase") == 2
-    assert sketch_variations(compose(["data.cloud_factor=1"]), "vase") is None
+    assert split_variations(cfg, "vase", clouds=False)["train"] == 2 and sketched_draws(cfg, "vase") == (2, 8)
+    assert sketched_draws(compose(["data.cloud_factor=1"]), "vase") is None
     # a sketch-only variant's epoch is a pass over the sketched shapes: cloud_factor times the epochs
     assert max_epochs(cfg, "joint") == 4 and max_epochs(cfg, "separate") == 2 and max_epochs(cfg, "huang") == 8
-    frame = pd.DataFrame({"forced": ["a", "a", "b", "a", "b", "b"], "forced_class": [0, 0, 1, 0, 1, 1]})
-    assert first_draws(frame, 2).tolist() == [0, 1, 2, 4] and first_draws(frame, None).tolist() == list(range(6))
+    # a shape's draw is its id's number modulo the draws of a class, in a subset too
+    frame = pd.DataFrame({"id": [f"train-{i:06d}" for i in (0, 1, 2, 5, 7, 8, 9, 14)]})
+    assert first_draws(frame, (2, 4)).tolist() == [0, 1, 3, 5, 6]
+    assert first_draws(frame, None).tolist() == list(range(8))
 
 
 def test_domain_epochs_replace_a_domains_max_epochs():

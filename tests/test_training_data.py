@@ -126,7 +126,7 @@ def test_a_split_with_fewer_sketches_than_clouds(dataset):
     for png in (root / "train" / "sketches").glob("*.png"):
         if int(png.name[6:12]) >= 3:
             png.unlink()                                     # only shapes 0-2 are ever read
-    split = load_split(root / "train", recipe, CAMERAS, sketched=3)   # one (forced, class): rows 0-2
+    split = load_split(root / "train", recipe, CAMERAS, sketched=(3, 10))   # one class of 10 draws: 0-2
     assert split.fps.shape[0] == 10 and split.sketches["az35"].shape[0] == 3
     assert split.sketch_rows.tolist() == [0, 1, 2]
     both = ShapeItems(split, N_PICK, CAMERAS, train=True)

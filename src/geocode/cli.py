@@ -389,7 +389,7 @@ def add_benchmarks(sub, domains: list[str]) -> None:
     c = command(sub, "epoch", "one training epoch at a dataset size (default: the paper-scale vase), "
                 "on random tensors on the device", "geocode bench epoch --device cuda",
                 "geocode bench epoch --clouds 330 --sketches 330 --points 1536 --variant huang",
-                "geocode bench epoch --device cpu --steps 5")
+                "geocode bench epoch --device cpu --steps 5 --sketch-bfloat16")
     c.add_argument("--clouds", type=at_most(100000, "clouds", "ten paper-scale epochs; the time grows with it"),
                    default=9330, help="clouds per epoch (default: the paper-scale vase's 9330)")
     c.add_argument("--sketches", type=at_most(200000, "sketches", "ten paper-scale epochs; the time grows with it"),
@@ -400,6 +400,8 @@ def add_benchmarks(sub, domains: list[str]) -> None:
                                             "(19 times the memory of 2300)"), default=2300, help="points per cloud")
     c.add_argument("--steps", metavar="N", type=at_least(1), help="time only the first N steps and scale their "
                    "mean to the epoch's (a paper-scale epoch on a CPU takes a long time)")
+    c.add_argument("--sketch-bfloat16", action="store_true",
+                   help="the sketch encoder autocast to bfloat16 (model.sketch_bfloat16, the mini profile's)")
     c.add_argument("--json", action="store_true")
     c.set_defaults(run=cmd_bench_epoch)
 
@@ -652,7 +654,7 @@ def cmd_bench_epoch(args):
                         f"(--clouds {args.clouds}): a step would hold them all on the device",
                         f"give at most {SKETCHES_PER_CLOUD * args.clouds}")
     return bench_epoch(args.clouds, args.sketches, device=args.device, n_points=args.points, variant=args.variant,
-                       max_steps=args.steps)
+                       max_steps=args.steps, sketch_bfloat16=args.sketch_bfloat16)
 
 
 def cmd_bench_eval(args):

@@ -205,15 +205,17 @@ def variants(cfg: DictConfig, domain: str) -> list[str]:
 def split_variations(cfg: DictConfig, domain: str, clouds: bool = True) -> dict[str, int]:
     """Shapes per parameter class of each split: data.variations, with the domain's entries
     in data.domain_variations in their place (null: none); the training split's times
-    data.cloud_factor unless `clouds` is false (the shapes drawn as sketches, `sketch_variations`)."""
+    data.cloud_factor unless `clouds` is false (the shapes drawn as sketches, `sketched_draws`)."""
     counts = {**cfg.data.variations, **(cfg.data.domain_variations or {}).get(domain, {})}
     return {**counts, "train": counts["train"] * (int(cfg.data.cloud_factor) if clouds else 1)}
 
 
-def sketch_variations(cfg: DictConfig, domain: str) -> int | None:
-    """The first draws of each parameter class of the training split that are drawn as sketches:
-    None where all of them are (data.cloud_factor 1)."""
-    return None if int(cfg.data.cloud_factor) == 1 else split_variations(cfg, domain, clouds=False)["train"]
+def sketched_draws(cfg: DictConfig, domain: str) -> tuple[int, int] | None:
+    """(the first draws of each parameter class of the training split that are drawn as
+    sketches, the draws of each class): None where all of them are (data.cloud_factor 1)."""
+    if int(cfg.data.cloud_factor) == 1:
+        return None
+    return split_variations(cfg, domain, clouds=False)["train"], split_variations(cfg, domain)["train"]
 
 
 def sketch_fit_budget(cfg: DictConfig, domain: str) -> int:

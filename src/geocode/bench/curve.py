@@ -55,7 +55,6 @@ from geocode.seeds import generator
 from geocode.steps.dataset import (
     SamplingError,
     assign_shards,
-    first_draws,
     sample_dataset,
     save_split_recipes,
     split_sizes,
@@ -194,7 +193,7 @@ def export_split(cfg: DictConfig, split_dir: Path, frame: pd.DataFrame, key: str
 
 def nested_subset(frame: pd.DataFrame, per_class: int) -> pd.DataFrame:
     """The first `per_class` draws of each (forced parameter, class), in the frame's order."""
-    return frame.iloc[first_draws(frame, per_class)].reset_index(drop=True)
+    return frame[frame.groupby(["forced", "forced_class"]).cumcount() < per_class].reset_index(drop=True)
 
 
 def redrawn(subset: pd.DataFrame, default: pd.DataFrame) -> int:

@@ -73,7 +73,7 @@ def bench_train(batch: int = 33, n_points: int = 2300, repeats: int = 3, n_heads
 
 def bench_epoch(clouds: int = 9330, sketches: int = 18660, batch: int = 33, device: str = "auto",
                 n_points: int = 2300, n_heads: int = 39, seed: int = 0, variant: str = "joint",
-                max_steps: int | None = None) -> dict:
+                max_steps: int | None = None, sketch_bfloat16: bool = False) -> dict:
     """Seconds of one training epoch of a model variant at a dataset size (default: the
     paper-scale vase, 9330 clouds and 18660 sketches), on random tensors of the inputs'
     shapes kept on the device (data loading not included): ceil(clouds / batch) Adam
@@ -84,7 +84,7 @@ def bench_epoch(clouds: int = 9330, sketches: int = 18660, batch: int = 33, devi
     torch.manual_seed(seed)
     heads = [{"name": f"p{i}", "n_classes": 5 + i % 3, "continuous": True, "existence": i % 4 == 0}
              for i in range(n_heads)]
-    model = GeoCodeModule(heads, variant=variant).to(dev).train()
+    model = GeoCodeModule(heads, variant=variant, sketch_bfloat16=sketch_bfloat16).to(dev).train()
     opt = torch.optim.Adam(model.parameters(), lr=1e-3)
     steps = -(-clouds // batch)
     per_step = max(1, round(batch * sketches / clouds))
@@ -113,7 +113,7 @@ def bench_epoch(clouds: int = 9330, sketches: int = 18660, batch: int = 33, devi
             "step_s": clock.seconds / timed, "variant": variant,
             "clouds": steps * batch if inputs["points"] is not None else 0, "sketches": steps * per_step,
             "device": torch.cuda.get_device_name(dev) if dev.type == "cuda" else "cpu",
-            "threads": torch.get_num_threads()}
+            "threads": torch.get_num_threads(), "sketch_bfloat16": sketch_bfloat16}
 
 
 def _device(name: str) -> torch.device:

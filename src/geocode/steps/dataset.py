@@ -36,7 +36,7 @@ import pandas as pd
 from omegaconf import DictConfig
 
 from geocode import paths
-from geocode.config import sketch_variations, split_variations
+from geocode.config import sketched_draws, split_variations
 from geocode.meshio import write_text
 from geocode.recipe import Recipe, load_recipe, load_recipes, save_recipes
 from geocode.seeds import key_word
@@ -306,13 +306,16 @@ def spread_subset(frame: pd.DataFrame, keep: int | None) -> pd.DataFrame:
     return frame.iloc[rows].reset_index(drop=True)
 
 
-def first_draws(frame: pd.DataFrame, per_class: int | None) -> np.ndarray:
-    """The rows (positions) of the first `per_class` draws of each (forced parameter, class), in
-    the frame's order: the training shapes drawn as sketches (`config.sketch_variations`); all
-    rows where None."""
-    if per_class is None:
+def first_draws(frame: pd.DataFrame, sketched: tuple[int, int] | None) -> np.ndarray:
+    """The rows (positions) of the shapes drawn as sketches, `config.sketched_draws`: the first
+    `first` of the `draws` draws of each (forced parameter, class). A shape's draw is its id's
+    number modulo `draws`: the sample numbers each class's draws one after the other, and a
+    subset (data.max_shapes) keeps the ids. All rows where None."""
+    if sketched is None:
         return np.arange(len(frame))
-    return np.flatnonzero(frame.groupby(["forced", "forced_class"]).cumcount().to_numpy() < per_class)
+    first, draws = sketched
+    numbers = frame["id"].str.rsplit("-", n=1).str[-1].astype(np.int64).to_numpy()
+    return np.flatnonzero(numbers % draws < first)
 
 
 def split_sizes(cfg: DictConfig, recipe: Recipe, domain: str, clouds: bool = True) -> dict[str, int]:
@@ -377,12 +380,12 @@ def sketch_step(cfg: DictConfig, split: str, shard: int) -> None:
 
 def sketched_ids(cfg: DictConfig, split_dir: Path, split: str) -> set[str] | None:
     """The shapes of a split drawn as sketches: the training split's first draws of each class
-    (`config.sketch_variations`); None (all) for the other splits."""
-    per_class = sketch_variations(cfg, cfg.domain.name) if split == "train" else None
-    if per_class is None:
+    (`config.sketched_draws`); None (all) for the other splits."""
+    sketched = sketched_draws(cfg, cfg.domain.name) if split == "train" else None
+    if sketched is None:
         return None
     frame = load_recipes(paths.recipes_file(split_dir))
-    return set(frame["id"].iloc[first_draws(frame, per_class)])
+    return set(frame["id"].iloc[first_draws(frame, sketched)])
 
 
 def split_cameras(cameras, split: str) -> list:

@@ -28,7 +28,7 @@ from geocode.checkpoints import (  # noqa: F401  (load_model, predict, predict_c
     read_checkpoint,
     recipe_stamp,
 )
-from geocode.config import max_epochs, settings, sketch_variations, training_key
+from geocode.config import max_epochs, settings, sketched_draws, training_key
 from geocode.errors import UserError, one_line
 from geocode.meshio import write_text
 from geocode.models.module import MODALITIES, GeoCodeModule
@@ -106,7 +106,7 @@ def build_datamodule(cfg: DictConfig, recipe, modalities=MODALITIES):
         point_augment=PointAugment(**s.train.augment_points.model_dump()),
         modalities=list(modalities),
         seed=s.seed,
-        sketched=sketch_variations(cfg, cfg.domain.name),
+        sketched=sketched_draws(cfg, cfg.domain.name),
     )
 
 

@@ -78,10 +78,11 @@ class SplitData:
         return len(self.ids)
 
 
-def load_split(split_dir: str | Path, recipe, cameras: Sequence[str], sketched: int | None = None) -> SplitData:
+def load_split(split_dir: str | Path, recipe, cameras: Sequence[str],
+               sketched: tuple[int, int] | None = None) -> SplitData:
     """Read a split folder: labels from recipes.parquet, clouds and sketches in parallel; the
-    sketches of the first `sketched` draws of each parameter class only, where given
-    (`steps.dataset.first_draws`)."""
+    sketches of the first draws of each parameter class only, where `sketched` (first, draws)
+    is given (`steps.dataset.first_draws`)."""
     from geocode.recipe import load_recipes
     from geocode.steps.dataset import first_draws
 
@@ -222,8 +223,8 @@ class GeoCodeDataModule(pl.LightningDataModule):
 
     `cameras`: the training cameras (a training item picks one at random); validation uses
     `eval_camera` (default: the first training camera). `modalities`: the inputs the items
-    carry (a model trained on points alone never reads a sketch). `sketched`: the first draws of
-    each parameter class of the training split that have sketches (None: all). `seed` (the
+    carry (a model trained on points alone never reads a sketch). `sketched`: (first, draws), the
+    first draws of each parameter class of the training split that have sketches (None: all). `seed` (the
     config's) fixes the training order of every epoch and the validation draw of random points.
     """
 
@@ -240,7 +241,7 @@ class GeoCodeDataModule(pl.LightningDataModule):
         point_augment: PointAugment | None = None,
         modalities: Sequence[str] = MODALITIES,
         seed: int = 0,
-        sketched: int | None = None,
+        sketched: tuple[int, int] | None = None,
     ) -> None:
         super().__init__()
         unknown = set(modalities) - set(MODALITIES)
