@@ -285,6 +285,18 @@ def test_a_collection_is_reconstructed_in_batches_and_a_rerun_redoes_only_what_i
     again = snakemake(work, "-j2", target, "--config", "profile=smoke", COLLECTION)
     check_collection(work, rules_run(again), batches=1)
     assert (records / "batch-0.json").stat().st_mtime_ns == kept
+    # a file added first shifts every batch: their jobs run again, but only the new file is reconstructed
+    done = {p.name: p.stat().st_mtime_ns for p in (records / "done").iterdir()}
+    assert len(done) == 3
+    shutil.copy(work / "scans" / "other.obj", work / "scans" / "another.obj")
+    shutil.rmtree(work / COLLECTION_DIR)
+    added = snakemake(work, "-j2", target, "--config", "profile=smoke", COLLECTION)
+    assert sorted(rules_run(added)) == ["reconstruct_batch"] * 2 + ["reconstruct_page"]
+    now = {p.name: p.stat().st_mtime_ns for p in (records / "done").iterdir()}
+    assert len(now) == 4 and all(now[name] == t for name, t in done.items())
+    summary = pd.read_csv(work / COLLECTION_DIR / "summary.csv")
+    assert list(summary["name"]) == ["another.obj", "other.obj", "twin.obj", "twin.ply"]
+    assert (work / COLLECTION_DIR / "another.obj").is_file() and summary["error"].isna().all()
 
 
 def test_the_real_shape_table_scores_each_file_against_the_baselines(smoke_run, tmp_path):

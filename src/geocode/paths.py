@@ -261,8 +261,16 @@ def collection_work(cfg, name: str) -> Path:
     return Path(cfg.paths.runs) / "reconstruct" / name
 
 
-def collection_batch_dir(work: Path, batch: int | str) -> Path:
-    return Path(work) / f"batch-{batch}"
+def collection_files_dir(work: Path) -> Path:
+    """<work>/files/: every input's outputs and pictures, under the names they have in the
+    collection's folder."""
+    return Path(work) / "files"
+
+
+def collection_input_record(work: Path, name: str) -> Path:
+    """<work>/done/<hash of the input's name>.json: one input's page entry, summary, files and
+    what it was made from, written after its files."""
+    return Path(work) / "done" / f"{hashlib.sha1(name.encode()).hexdigest()[:16]}.json"
 
 
 def collection_batch_file(work: Path, batch: int | str) -> Path:

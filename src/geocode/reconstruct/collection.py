@@ -5,12 +5,15 @@
 The collection's inputs, and their names, are those of `geocode reconstruct scans/ -o
 results/reconstruct/scans` (`geocode.reconstruct.plan`), taken in batches of `batch` inputs
 in that order. Each batch is one job (`batch_step`): its inputs reconstructed as a folder run
-reconstructs them, their outputs and pictures written under the same names in the batch's own
-folder (<paths.runs>/reconstruct/<name>/batch-<n>/, emptied first), then its record
-(batch-<n>.json: each input's page entry, summary and files) last, so that a batch stopped
-half-way has no record and is redone whole. The page job (`page_step`) links every batch's
-files into the collection's folder (copies where links cannot be made) and writes the page,
-summary.csv and the folder's record, as `geocode reconstruct` does.
+reconstructs them, their outputs and pictures written under the same names in
+<paths.runs>/reconstruct/<name>/files/, then each input's record (done/<hash of its name>.json:
+its page entry, summary, files, and the input, model and settings it was made from), then the
+batch's record (batch-<n>.json) last. An input whose record still matches is not done again:
+a file added to the folder shifts the batches after it, and their jobs run again, but only the
+new file is reconstructed; a stopped job leaves the inputs it had not finished without a
+record. The page job (`page_step`) links every input's files into the collection's folder
+(copies where links cannot be made) and writes the page, summary.csv and the folder's record,
+as `geocode reconstruct` does.
 """
 
 from __future__ import annotations
@@ -153,10 +156,10 @@ def spec_error(where: str, error: dict) -> str:
 def batch_step(cfg, domain: str, inputs: Path, out_dir: Path, work: Path, batch: int, size: int,
                checkpoint: Path | None = None, budget: int | None = None, recursive: bool = False,
                workers: int = 1) -> dict:
-    """Reconstruct the collection's batch `batch` (of `size` inputs) into its folder under
-    `work`, and write its record last."""
+    """Reconstruct the collection's batch `batch` (of `size` inputs) into <work>/files, each
+    input's record after its files and the batch's record last; an input whose record matches
+    what it would be made from now (`origin`) and whose files are there is kept as it is."""
     from geocode import paths
-    from geocode.meshio import write_text
     from geocode.reconstruct.run import reconstruct_jobs
 
     plan = plan_run(Path(inputs), Path(out_dir), recursive)
@@ -165,18 +168,58 @@ def batch_step(cfg, domain: str, inputs: Path, out_dir: Path, work: Path, batch:
         raise UserError(f"--batch {batch}", f"the collection has {len(parts)} batches of {size}",
                         f"give 0 .. {len(parts) - 1}")
     jobs = parts[batch]
-    folder = paths.collection_batch_dir(work, batch)
-    shutil.rmtree(folder, ignore_errors=True)      # what a stopped try left: the batch is redone whole
-    files = {job.name: job_files(job, plan.out_dir) for job in jobs}
-    moved = Plan(folder, [Job(j.path, j.name, folder / j.stem.relative_to(plan.out_dir)) for j in jobs],
-                 [f for names in files.values() for f in names], [])
+    folder = paths.collection_files_dir(work)
     settings = {"domain": domain, "checkpoint": checkpoint, "refine": budget, "up": "auto", "candidates": 1}
-    entries, summaries = reconstruct_jobs(cfg, settings, moved, workers)
-    record = [{"name": e.name, "entry": asdict(e), "summary": s,
-               "files": [f for f in files[e.name] if (folder / f).is_file()]}
-              for e, s in zip(entries, summaries, strict=True)]
-    write_text(paths.collection_batch_file(work, batch), json.dumps(record, indent=1, default=plain) + "\n")
-    return {"batch": batch, "inputs": len(record), "failed": sum("error" in s for s in summaries)}
+    made_from = {job.name: origin(cfg, settings, job) for job in jobs}
+    kept = {job.name: record for job in jobs
+            if (record := read_json(paths.collection_input_record(work, job.name))) is not None
+            and record["made_from"] == made_from[job.name] and all((folder / f).is_file() for f in record["files"])}
+    todo = [job for job in jobs if job.name not in kept]
+    files = {job.name: job_files(job, plan.out_dir) for job in todo}
+    for name in (f for names in files.values() for f in names):
+        (folder / name).unlink(missing_ok=True)     # what a stopped or older try left
+    moved = Plan(folder, [Job(j.path, j.name, folder / j.stem.relative_to(plan.out_dir)) for j in todo],
+                 [f for names in files.values() for f in names], [])
+    entries, summaries = reconstruct_jobs(cfg, settings, moved, workers) if todo else ([], [])
+    for e, s in zip(entries, summaries, strict=True):
+        record = {"name": e.name, "entry": asdict(e), "summary": s, "made_from": made_from[e.name],
+                  "files": [f for f in files[e.name] if (folder / f).is_file()]}
+        kept[e.name] = record
+        if "error" not in s:                         # a failed input is tried again by a rerun
+            write_json(paths.collection_input_record(work, e.name), record)
+    record = [kept[job.name] for job in jobs]
+    write_json(paths.collection_batch_file(work, batch), record)
+    return {"batch": batch, "inputs": len(record), "reconstructed": len(todo),
+            "failed": sum("error" in r["summary"] for r in record)}
+
+
+def origin(cfg, settings: dict, job: Job) -> dict:
+    """What an input's outputs are made from: the file (its size and time), the model (its
+    checkpoint's time) and the settings; a rerun keeps outputs made from the same."""
+    from omegaconf import OmegaConf
+
+    def stamp(path) -> list:
+        stat = Path(path).stat()
+        return [str(path), stat.st_size, stat.st_mtime_ns]
+
+    checkpoint = settings["checkpoint"]
+    return {"input": stamp(job.path), "checkpoint": checkpoint and stamp(checkpoint),
+            "settings": json.dumps(settings, sort_keys=True, default=str),
+            "config": json.dumps(OmegaConf.to_container(cfg, resolve=True), sort_keys=True, default=str)}
+
+
+def read_json(path: Path):
+    """A record, or None where there is none (or only half of one)."""
+    try:
+        return json.loads(path.read_text())
+    except (OSError, ValueError):
+        return None
+
+
+def write_json(path: Path, value) -> None:
+    from geocode.meshio import write_text
+
+    write_text(path, json.dumps(value, indent=1, default=plain) + "\n")
 
 
 def page_step(domain: str, inputs: Path, out_dir: Path, work: Path, size: int, recursive: bool = False) -> dict:
@@ -188,20 +231,19 @@ def page_step(domain: str, inputs: Path, out_dir: Path, work: Path, size: int, r
 
     out_dir = Path(out_dir)
     plan = plan_run(Path(inputs), out_dir, recursive)
-    items = []
-    for batch in range(len(batches(plan.jobs, size))):
-        record = json.loads(paths.collection_batch_file(work, batch).read_text())
-        items += [(paths.collection_batch_dir(work, batch), item) for item in record]
-    if [item["name"] for _, item in items] != [job.name for job in plan.jobs]:
+    items = [item for batch in range(len(batches(plan.jobs, size)))
+             for item in json.loads(paths.collection_batch_file(work, batch).read_text())]
+    if [item["name"] for item in items] != [job.name for job in plan.jobs]:
         raise UserError(inputs, "its files changed since the batches were reconstructed",
                         "run the workflow again: it redoes the batches")
     plan.write_record()
-    for folder, item in items:
+    folder = paths.collection_files_dir(work)
+    for item in items:
         for name in item["files"]:
             place(folder / name, out_dir / name)
-    entries = [entry_of(item["entry"]) for _, item in items]
+    entries = [entry_of(item["entry"]) for item in items]
     page.write_page(entries, out_dir, page_title(domain), note=PAGE_NOTE)
-    return folder_summary([item["summary"] for _, item in items], out_dir)
+    return folder_summary([item["summary"] for item in items], out_dir)
 
 
 def place(source: Path, target: Path) -> None:
