@@ -62,6 +62,10 @@ def test_bench_real_scores_every_file_against_its_baselines_and_writes_their_pag
     assert not (out / "vase" / "twin.obj").exists()
     card = (folder / "runs" / "vase" / "joint" / "README.md").read_text()
     assert "Real shapes (`geocode bench real`, 2 files)" in card
+    # without the true up axis the baselines are the reconstruction's own, in the pose it found
+    assert main(["bench", "real", str(folder), "--budget", "4", "--json", f"paths.runs={folder / 'runs'}"]) == 0
+    found = json.loads(capsys.readouterr().out.strip().splitlines()[-1])["vase"]["files"]
+    assert all(f["up_true"] is None and f["defaults"] == pytest.approx(defaults, rel=0.1) for f in found)
 
 
 def test_bench_span_fits_from_the_defaults_and_writes_a_page(folder, tmp_path, capsys):

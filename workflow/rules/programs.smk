@@ -10,6 +10,7 @@ rule program:
         manifest=manifest("{domain}"),
     log:
         log_path(CFG.paths.build, "program", "{domain}"),
+    priority: data_priority   # the longest-training domain's first: its data follows
     threads: 1
     resources:
         mem_mb=2000,

@@ -17,7 +17,8 @@ With `out`, each file's outputs are written as `geocode reconstruct -o` writes t
 seconds include them.
 
 The two baselines are given the true up axis where `up_truth` names it (a YAML mapping of file
-name patterns to axes, first match wins, e.g. `{"*.off": z, "*": y}`), else the one found.
+name patterns to axes, first match wins, e.g. `{"*.off": z, "*": y}`); else they are the
+reconstruction's own, in the pose it found (`Reconstructor.baselines`, as the real-shape table's).
 """
 
 from __future__ import annotations
@@ -106,17 +107,17 @@ def score_file(run, job, truth: str | None, out: Path | None = None) -> tuple[di
     result = run(path)
     entry = None if out is None else write_outputs(run, result, job.stem, out, job.name)
     seconds = time.perf_counter() - started
-    up = run.up
-    run.up = truth or result.frame.pose.up       # the baselines: the true up axis where known
-    frame = run.frames(result.geometry)[0]
-    run.up = up
-    defaults = min(run.score(frame, {}, turn) for turn in QUARTER_TURNS)
-    nearest = (run.training.matches(frame.samples, 1)[0].chamfer
-               if run.training is not None else math.nan)
+    baselines = result.summary                   # in the pose found, or with the true up axis where known
+    if truth is not None:
+        up, run.up = run.up, truth
+        frame = run.frames(result.geometry)[0]
+        run.up = up
+        baselines = run.baselines(frame, [] if run.training is None else run.training.matches(frame.samples, 1))
     if entry is not None:
         entry.seconds = round(seconds, 2)
     return {"file": path.name, "network": result.network, "fit": result.answers[0].chamfer,
-            "defaults": defaults, "nearest": nearest, "seconds": seconds,
+            "defaults": baselines["chamfer_defaults"], "nearest": baselines.get("chamfer_nearest", math.nan),
+            "seconds": seconds,
             "up": result.frame.pose.up, "up_true": truth}, entry
 
 
