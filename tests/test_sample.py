@@ -232,9 +232,9 @@ def test_cloud_factor_grows_the_training_split_and_only_its_first_draws_are_sket
     # a sketch-only variant's epoch is a pass over the sketched shapes: cloud_factor times the epochs
     assert max_epochs(cfg, "joint") == 4 and max_epochs(cfg, "separate") == 2 and max_epochs(cfg, "huang") == 8
     # a shape's draw is its id's number modulo the draws of a class, in a subset too
-    frame = pd.DataFrame({"id": [f"train-{i:06d}" for i in (0, 1, 2, 5, 7, 8, 9, 14)]})
-    assert first_draws(frame, (2, 4)).tolist() == [0, 1, 3, 5, 6]
-    assert first_draws(frame, None).tolist() == list(range(8))
+    ids = [f"train-{i:06d}" for i in (0, 1, 2, 5, 7, 8, 9, 14)]
+    assert first_draws(ids, (2, 4)).tolist() == [0, 1, 3, 5, 6]
+    assert first_draws(ids, None).tolist() == list(range(8))
 
 
 def test_domain_epochs_replace_a_domains_max_epochs():

@@ -85,9 +85,8 @@ def file_hashes(folder: Path) -> dict[str, str]:
 
 def test_smoke_run_makes_the_dataset(smoke_run):
     split = smoke_run / "data" / "smoke" / "vase" / "train"
-    frame = pd.read_parquet(split / "recipes.parquet")
-    ids = frame["id"].tolist()
-    drawn = set(frame["id"].iloc[first_draws(frame, (1, 2))])     # data.cloud_factor 2: the first draw of each class
+    ids = pd.read_parquet(split / "recipes.parquet")["id"].tolist()
+    drawn = {ids[k] for k in first_draws(ids, (1, 2))}     # data.cloud_factor 2: the first draw of each class
     assert len(ids) == 12 and 0 < len(drawn) < len(ids)
     for i in ids:
         for suffix in (".obj", ".yaml", ".labels.yaml", ".parts.npy"):

@@ -25,7 +25,7 @@ from __future__ import annotations
 import logging
 import math
 import struct
-from collections.abc import Collection, Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -198,15 +198,17 @@ def is_sketch(path: Path) -> bool:
 
 def sketch_shard(split_dir: str | Path, shard: int, cameras: Sequence[Camera | Mapping] = DEFAULT_CAMERAS,
                  size: int = 224, seed: int = 0, jitter: float = 0.0,
-                 elevation: float = DEFAULT_ELEVATION, only: Collection[str] | None = None) -> Path:
-    """Sketch every shape that `done/export-<shard>.txt` lists (those in `only`, where given);
+                 elevation: float = DEFAULT_ELEVATION,
+                 only: Callable[[list[str]], list[str]] | None = None) -> Path:
+    """Sketch every shape that `done/export-<shard>.txt` lists (those `only` keeps of them, where given);
     skip finished views; write `done/sketch-<shard>.txt`, the shapes drawn, last. Cameras are
     `Camera`s or config items {name, azimuth, elevation?}; `elevation` fills a missing one.
     Returns the done file."""
     split_dir = Path(split_dir)
     cameras = [c if isinstance(c, Camera) else cameras_from_config([c], elevation)[0]
                for c in cameras]
-    ids = [i for i in read_ids(paths.done_file(split_dir, "export", shard)) if only is None or i in only]
+    ids = read_ids(paths.done_file(split_dir, "export", shard))
+    ids = ids if only is None else only(ids)
     progress = Progress(f"sketch shard {shard}", len(ids) * len(cameras), log)
     for shape_id in ids:
         views = {c.name: paths.sketch_file(split_dir, shape_id, c.name) for c in cameras}

@@ -27,7 +27,7 @@ from __future__ import annotations
 import hashlib
 import logging
 import shutil
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -306,16 +306,15 @@ def spread_subset(frame: pd.DataFrame, keep: int | None) -> pd.DataFrame:
     return frame.iloc[rows].reset_index(drop=True)
 
 
-def first_draws(frame: pd.DataFrame, sketched: tuple[int, int] | None) -> np.ndarray:
-    """The rows (positions) of the shapes drawn as sketches, `config.sketched_draws`: the first
+def first_draws(ids: Sequence[str], sketched: tuple[int, int] | None) -> np.ndarray:
+    """The positions in `ids` of the shapes drawn as sketches, `config.sketched_draws`: the first
     `first` of the `draws` draws of each (forced parameter, class). A shape's draw is its id's
     number modulo `draws`: the sample numbers each class's draws one after the other, and a
-    subset (data.max_shapes) keeps the ids. All rows where None."""
+    subset (data.max_shapes) keeps the ids. All positions where None."""
     if sketched is None:
-        return np.arange(len(frame))
+        return np.arange(len(ids))
     first, draws = sketched
-    numbers = frame["id"].str.rsplit("-", n=1).str[-1].astype(np.int64).to_numpy()
-    return np.flatnonzero(numbers % draws < first)
+    return np.flatnonzero([int(i.rsplit("-", 1)[-1]) % draws < first for i in ids])
 
 
 def split_sizes(cfg: DictConfig, recipe: Recipe, domain: str, clouds: bool = True) -> dict[str, int]:
@@ -375,17 +374,15 @@ def sketch_step(cfg: DictConfig, split: str, shard: int) -> None:
     s = cfg.data.sketch
     split_dir = paths.split_dir(cfg, cfg.domain.name, paths.check_split(cfg, split))
     sketch_shard(split_dir, shard, cameras=split_cameras(s.cameras, split), size=s.size, elevation=s.elevation,
-                 seed=cfg.seed, jitter=s.jitter, only=sketched_ids(cfg, split_dir, split))
+                 seed=cfg.seed, jitter=s.jitter, only=sketched_shapes(cfg, split))
 
 
-def sketched_ids(cfg: DictConfig, split_dir: Path, split: str) -> set[str] | None:
-    """The shapes of a split drawn as sketches: the training split's first draws of each class
-    (`config.sketched_draws`); None (all) for the other splits."""
+def sketched_shapes(cfg: DictConfig, split: str):
+    """Which of a split's shapes are drawn as sketches, as `sketch_shard`'s `only` takes it: the
+    training split's first draws of each class (`config.sketched_draws`); None (all) for the
+    other splits."""
     sketched = sketched_draws(cfg, cfg.domain.name) if split == "train" else None
-    if sketched is None:
-        return None
-    frame = load_recipes(paths.recipes_file(split_dir))
-    return set(frame["id"].iloc[first_draws(frame, sketched)])
+    return None if sketched is None else (lambda ids: [ids[k] for k in first_draws(ids, sketched)])
 
 
 def split_cameras(cameras, split: str) -> list:

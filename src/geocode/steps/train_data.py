@@ -92,7 +92,7 @@ def load_split(split_dir: str | Path, recipe, cameras: Sequence[str],
     if not ids:
         raise UserError(paths.recipes_file(split_dir), "no shapes in this split", "sample more")
     labels = recipe.class_matrix(frame).astype(np.int64)  # (n, P)
-    rows = first_draws(frame, sketched)
+    rows = first_draws(ids, sketched)
     with ThreadPoolExecutor(IO_THREADS) as pool:
         clouds = list(pool.map(_load_npz, [paths.cloud_file(split_dir, i) for i in ids]))
         sketches = {
