@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import io
 import os
 from contextlib import contextmanager
 from pathlib import Path
@@ -35,11 +34,13 @@ def write_text(path: str | os.PathLike, text: str) -> None:
 
 
 def obj_text(vertices: np.ndarray, faces: np.ndarray) -> str:
-    """Wavefront OBJ of a triangle mesh; 6 decimals keep files byte-identical across runs."""
-    out = io.StringIO()
-    np.savetxt(out, np.asarray(vertices, dtype=np.float64), fmt="v %.6f %.6f %.6f")
-    np.savetxt(out, np.asarray(faces, dtype=np.int64) + 1, fmt="f %d %d %d")
-    return out.getvalue()
+    """Wavefront OBJ of a triangle mesh: every vertex line, then every face line; 6 decimals
+    keep files byte-identical across runs. (One format string over all rows: the text of
+    `np.savetxt` in a third of its time.)"""
+    vertices = np.asarray(vertices, dtype=np.float64).reshape(-1, 3)
+    faces = np.asarray(faces, dtype=np.int64).reshape(-1, 3) + 1
+    return ("v %.6f %.6f %.6f\n" * len(vertices)) % tuple(vertices.ravel().tolist()) + \
+        ("f %d %d %d\n" * len(faces)) % tuple(faces.ravel().tolist())
 
 
 def write_obj(path: str | os.PathLike, mesh: trimesh.Trimesh) -> None:
@@ -51,7 +52,9 @@ def read_obj(path: str | os.PathLike, fix: str = "give an OBJ with at least one 
     naming the file (`fix` says how to remake it)."""
     path = Path(path)
     try:
-        mesh = trimesh.load(path, file_type="obj", force="mesh", process=False)
+        own = _own_obj(path.read_bytes())
+        mesh = trimesh.Trimesh(*own, process=False) if own else \
+            trimesh.load(path, file_type="obj", force="mesh", process=False)
     except Exception as exc:  # trimesh raises many types for a broken file
         raise UserError(path, f"not a readable OBJ mesh ({one_line(exc)})", fix) from None
     if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
@@ -59,6 +62,27 @@ def read_obj(path: str | os.PathLike, fix: str = "give an OBJ with at least one 
     if not np.isfinite(mesh.vertices).all():
         raise UserError(path, "has vertices that are NaN or infinite", fix)
     return mesh
+
+
+def _own_obj(data: bytes) -> tuple[np.ndarray, np.ndarray] | None:
+    """(vertices (V, 3), faces (F, 3) from 0) of an OBJ as `obj_text` writes it, read in a third
+    of trimesh's time to the same arrays; None for any other OBJ (trimesh reads those)."""
+    split = data.find(b"\nf ") + 1
+    if not data.startswith(b"v ") or split == 0 or not data.endswith(b"\n"):
+        return None
+    vertex_lines, face_lines = data[:split], data[split:]
+    n_vertices, n_faces = vertex_lines.count(b"\n"), face_lines.count(b"\n")
+    if vertex_lines.count(b"v ") != n_vertices or face_lines.count(b"f ") != n_faces:
+        return None
+    try:
+        vertices = np.array(vertex_lines.replace(b"v ", b" ").split(), dtype=np.float64)
+        faces = np.array(face_lines.replace(b"f ", b" ").split(), dtype=np.int64)
+    except ValueError:     # other records ("vn", "f 1/1 ..."): not ours
+        return None
+    if len(vertices) != 3 * n_vertices or len(faces) != 3 * n_faces or not len(faces) \
+            or faces.min() < 1 or faces.max() > n_vertices:
+        return None
+    return vertices.reshape(-1, 3), faces.reshape(-1, 3) - 1
 
 
 def normalise_unit_sphere(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
