@@ -136,6 +136,12 @@ def training_priority(wildcards):
     return 100 + (1 if wildcards.variant == "joint" else 0)
 
 
+def dataset_priority(wildcards):
+    """Above the trainings it unlocks: at the evaluation's priority (0) it would wait behind
+    every ready evaluation job, and the domain's trainings with it (docs/design.md#job-order)."""
+    return 102
+
+
 def training_settings(wildcards):
     """Everything a model depends on, epochs included (`config.training_key`): a param of the
     train rule, so that Snakemake retrains when a profile's YAML changes, not only when the

@@ -81,3 +81,4 @@ rule dataset:
         lambda w: done_files("sketch", w.domain) + done_files("points", w.domain),
     output:
         touch(str(paths.dataset_done(CFG, "{domain}"))),
+    priority: dataset_priority   # instant, and the domain's trainings wait for it
