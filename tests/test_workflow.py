@@ -175,9 +175,10 @@ def test_benchmarks_of_the_pose_and_the_fits_run_on_a_trained_model(smoke_run, m
         option = {flag: int(value) for flag, value in zip(bench, bench[1:], strict=False) if flag in ("-n", "--budget")}
         assert result["shapes"] == option["-n"] and result["budget"] == option["--budget"]
         assert 0 < result["chamfer_before"] and 0 < result["chamfer_after"]
-    if bench[0] == "fit" and "sketch" not in bench:   # each shape's distances, for paired comparisons
+    if bench[0] == "fit":   # each shape's distances, for paired comparisons
         shapes = result["per_shape"]
-        assert len({s["shape"] for s in shapes}) == len(shapes) == 2 and shapes[0]["shape"].startswith("test-")
+        assert len({s["shape"] for s in shapes}) == len(shapes) == option["-n"]
+        assert shapes[0]["shape"].startswith(f"{split}-")
         for key in ("chamfer_before", "chamfer_after"):
             assert result[key] == pytest.approx(np.mean([s[key] for s in shapes]), abs=1e-6)
 

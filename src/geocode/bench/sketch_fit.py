@@ -39,7 +39,8 @@ def bench_sketch_fit(cfg, domain: str, n: int = 10, camera: str = "trained", spl
     untrained one), fitted to the sketch, measured against the ground truth by
     `metrics.chamfer_meshes`: before and after, and the median seconds per drawing (network,
     fit and both rebuilds included). budget: the fit's evaluations (default: the domain's
-    eval.sketch_fit_budget)."""
+    eval.sketch_fit_budget). Each shape's distances and seconds come too, for paired
+    comparisons of settings."""
     budget = sketch_fit_budget(cfg, domain) if budget is None else budget
     tuning = settings(cfg).fit.drawing
     program = Program.load(domain)
@@ -48,9 +49,10 @@ def bench_sketch_fit(cfg, domain: str, n: int = 10, camera: str = "trained", spl
     model = load_model(checkpoint, recipe=recipe)
     cams = [c for c in cfg.data.sketch.cameras if bool(c.train) == (camera == "trained")]
     folder = paths.split_dir(cfg, domain, split)
+    ids = split_ids(cfg, domain, split)[:n]
     before, after, seconds, curves = [], [], [], []
     with tempfile.TemporaryDirectory() as tmp:
-        for k, shape_id in enumerate(split_ids(cfg, domain, split)[:n]):
+        for k, shape_id in enumerate(ids):
             started = time.perf_counter()
             gt = read_obj(paths.shape_file(paths.shapes_dir(folder), shape_id))
             drawing = load_sketch(drawing_file(cfg, domain, split, shape_id, gt, cams[k % len(cams)], Path(tmp)))
@@ -67,7 +69,10 @@ def bench_sketch_fit(cfg, domain: str, n: int = 10, camera: str = "trained", spl
             "chamfer_after": round(float(np.mean(after)), 6),
             **ratio_interval(before, after),
             "seconds_per_shape": round(statistics.median(seconds), 2),
-            "curve": mean_curve(curves)}
+            "curve": mean_curve(curves),
+            "per_shape": [{"shape": shape_id, "chamfer_before": round(float(b), 6), "chamfer_after": round(float(a), 6),
+                           "seconds": round(t, 2)}
+                          for shape_id, b, a, t in zip(ids, before, after, seconds, strict=True)]}
 
 
 def drawing_file(cfg, domain: str, split: str, shape_id: str, mesh, camera, tmp: Path) -> Path:
